@@ -1,0 +1,1 @@
+"""Bundled machine descriptions (installed as the data package ncsim.machines)."""

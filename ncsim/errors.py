@@ -1,0 +1,116 @@
+"""One exception family for everything ncsim rejects, and the CLI's exit codes.
+
+Every error renders as a single line that names where the problem is:
+
+* program errors:   ``FILE:LINE:COL: message``
+* machine errors:   ``FILE: key.path: message``
+* measured data:    ``FILE:LINE: message`` or ``FILE: column 'x': message``
+
+The library raises; only ``ncsim.cli`` prints and exits.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+
+class ExitStatus(IntEnum):
+    """Exit codes of the ``ncsim`` command (documented in the README)."""
+
+    OK = 0
+    CHECK_FAILED = 1  # `ncsim check`: a threshold does not hold
+    BAD_INPUT = 2     # unreadable program, machine, trace or option
+
+
+class NcsimError(Exception):
+    """Base of every error ncsim raises on bad input."""
+
+    exit_status = ExitStatus.BAD_INPUT
+
+    def render(self) -> str:
+        return str(self)
+
+
+class NcError(NcsimError):
+    """An error in an NC program, located at file, line and column (both 1-based)."""
+
+    def __init__(self, message: str, file: str = "<program>", line: int = 0, column: int = 0):
+        super().__init__(message)
+        self.message = message
+        self.file = file
+        self.line = line
+        self.column = column
+
+    def render(self) -> str:
+        return f"{self.file}:{self.line}:{self.column}: {self.message}"
+
+    def __str__(self) -> str:  # so that pytest.raises(match=...) sees the location too
+        return self.render()
+
+
+class NcSyntaxError(NcError):
+    """The text is not a program of the grammar (grammars/sinumerik.lark)."""
+
+
+class NcSemanticError(NcError):
+    """The program parses but cannot be executed: unknown word, no feed, bad arc, ..."""
+
+
+class NcUnsupportedError(NcSemanticError):
+    """The program uses something real but outside what ncsim simulates (e.g. TRAORI)."""
+
+
+class MachineSpecError(NcsimError):
+    """A machine description (TOML) is missing, mistyped or out of range."""
+
+    def __init__(self, message: str, file: str = "<machine>", key: str = ""):
+        super().__init__(message)
+        self.message = message
+        self.file = file
+        self.key = key
+
+    def render(self) -> str:
+        where = f"{self.file}: {self.key}: " if self.key else f"{self.file}: "
+        return where + self.message
+
+    def __str__(self) -> str:
+        return self.render()
+
+
+class MeasuredDataError(NcsimError):
+    """A measured trace or summary file cannot be used."""
+
+    def __init__(self, message: str, file: str = "<measured>", line: int | None = None,
+                 column: str | None = None):
+        super().__init__(message)
+        self.message = message
+        self.file = file
+        self.line = line
+        self.column = column
+
+    def render(self) -> str:
+        if self.line is not None:
+            return f"{self.file}:{self.line}: {self.message}"
+        if self.column is not None:
+            return f"{self.file}: column '{self.column}': {self.message}"
+        return f"{self.file}: {self.message}"
+
+    def __str__(self) -> str:
+        return self.render()
+
+
+class UsageError(NcsimError):
+    """A bad option combination or value given on the command line or to the API."""
+
+
+@dataclass(frozen=True, slots=True)
+class NcWarning:
+    """Something parsed but not simulated (or simulated approximately), with its location."""
+
+    message: str
+    file: str
+    line: int
+    column: int = 0
+
+    def render(self) -> str:
+        return f"{self.file}:{self.line}:{self.column}: warning: {self.message}"
