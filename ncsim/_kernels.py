@@ -1,0 +1,289 @@
+"""Sequential inner loops of the planner, compiled with numba when it is available.
+
+The look-ahead's backward/forward passes are recurrences over knots (each knot's feed
+depends on its neighbour's), which numpy cannot vectorise; a compiled loop does a million
+knots in milliseconds. Without numba the same code runs as plain Python (slowly but
+identically). ``tests/test_ramps.py`` checks these scalars against ``ncsim.ramps``.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+try:  # pragma: no cover - exercised by whichever environment runs the tests
+    from numba import njit
+except ImportError:  # pragma: no cover
+    def njit(*args, **kwargs):
+        if args and callable(args[0]):
+            return args[0]
+        return lambda f: f
+
+
+@njit(cache=True)
+def ramp_reach_scalar(v0, distance, jerk, accel):
+    """Scalar twin of :func:`ncsim.ramps.ramp_reach_mm_s` (same closed forms)."""
+    if distance <= 0.0:
+        return v0
+    if not math.isfinite(distance) or not math.isfinite(v0):
+        return math.inf
+    p = 2.0 * v0
+    q = distance * math.sqrt(jerk)
+    if p > 1e-9 * q ** (2.0 / 3.0):
+        arg = (1.5 * q / p) * math.sqrt(3.0 / p)
+        y = 2.0 * math.sqrt(p / 3.0) * math.sinh(math.asinh(arg) / 3.0)
+    else:
+        y = q ** (1.0 / 3.0)
+    y = y - (y * y * y + p * y - q) / (3.0 * y * y + p + 1e-300)
+    x = y * y
+    if x * jerk <= accel * accel:
+        return v0 + x
+    b = 2.0 * v0 + accel * accel / jerk
+    c = 2.0 * v0 * accel * accel / jerk - 2.0 * distance * accel
+    disc = math.sqrt(max(b * b - 4.0 * c, 0.0))
+    x = -2.0 * c / (b + disc) if c < 0.0 else 0.0
+    return v0 + max(x, 0.0)
+
+
+@njit(cache=True)
+def knot_feeds(caps, section_length, section_jerk, section_accel):
+    """Backward then forward pass over knots: each knot's feed is at most its cap, at most
+    what one ramp brings down to the next knot's feed, at most what one ramp brings up
+    from the previous one (see ncsim.plan)."""
+    m = caps.shape[0]
+    v = caps.copy()
+    for i in range(m - 2, -1, -1):
+        r = ramp_reach_scalar(v[i + 1], section_length[i], section_jerk[i], section_accel[i])
+        if r < v[i]:
+            v[i] = r
+    for i in range(m - 1):
+        r = ramp_reach_scalar(v[i], section_length[i], section_jerk[i], section_accel[i])
+        if r < v[i + 1]:
+            v[i + 1] = r
+    return v
+
+
+def knot_feeds_array(caps, section_length, section_jerk, section_accel) -> np.ndarray:
+    return knot_feeds(np.ascontiguousarray(caps, dtype=np.float64),
+                      np.ascontiguousarray(section_length, dtype=np.float64),
+                      np.ascontiguousarray(section_jerk, dtype=np.float64),
+                      np.ascontiguousarray(section_accel, dtype=np.float64))
+
+
+@njit(cache=True)
+def ramp_time_scalar(dv, jerk, accel):
+    """Scalar twin of :func:`ncsim.ramps.ramp_time_s`."""
+    dv = abs(dv)
+    if dv * jerk <= accel * accel:
+        return 2.0 * math.sqrt(dv / jerk)
+    return dv / accel + accel / jerk
+
+
+@njit(cache=True)
+def ramp_distance_scalar(v0, v1, jerk, accel):
+    """Scalar twin of :func:`ncsim.ramps.ramp_distance_mm`."""
+    return 0.5 * (v0 + v1) * ramp_time_scalar(v1 - v0, jerk, accel)
+
+
+@njit(cache=True)
+def peak_feed_scalar(va, vb, length, jerk, accel, cap):
+    """Scalar twin of :func:`ncsim.ramps.peak_feed_mm_s` (generalised eq. 16)."""
+    lo = max(va, vb)
+    if cap <= lo:
+        return cap
+    if math.isfinite(cap) and (ramp_distance_scalar(va, cap, jerk, accel)
+                               + ramp_distance_scalar(cap, vb, jerk, accel) <= length):
+        return cap
+    if length <= 0.0:
+        return lo
+    hi = cap if math.isfinite(cap) else max(ramp_reach_scalar(lo, length, jerk, accel), lo)
+    if ramp_distance_scalar(va, lo, jerk, accel) + ramp_distance_scalar(lo, vb, jerk, accel) >= length:
+        return lo
+    # Newton in u = sqrt(V - lo): f is smooth in u (in V it has a square-root end), so the
+    # iteration converges in a few steps; kept inside the bracket [u_lo, u_hi].
+    u_lo, u_hi = 0.0, math.sqrt(hi - lo)
+    u = u_hi
+    for _ in range(100):
+        v = lo + u * u
+        f = (ramp_distance_scalar(va, v, jerk, accel) + ramp_distance_scalar(v, vb, jerk, accel)
+             - length)
+        if f < 0.0:
+            u_lo = u
+        else:
+            u_hi = u
+        slope = 2.0 * u * (_ramp_distance_slope(va, v, jerk, accel)
+                           + _ramp_distance_slope(vb, v, jerk, accel))
+        nu = u - f / slope if slope > 0.0 and math.isfinite(slope) else 0.5 * (u_lo + u_hi)
+        if not (u_lo < nu < u_hi):
+            nu = 0.5 * (u_lo + u_hi)
+        if abs(nu - u) <= 1e-13 * max(nu, 1e-6) or u_hi - u_lo <= 1e-13 * max(u_hi, 1e-6):
+            u = nu
+            break
+        u = nu
+    v = lo + u * u
+    if (ramp_distance_scalar(va, v, jerk, accel) + ramp_distance_scalar(v, vb, jerk, accel)
+            > length * (1.0 + 1e-12) + 1e-12):
+        v = lo + u_lo * u_lo
+    return v
+
+
+@njit(cache=True)
+def _ramp_distance_slope(v_end, v, jerk, accel):
+    """d/dv of the ramp distance between a fixed feed v_end and a peak v >= v_end."""
+    dv = v - v_end
+    if dv <= 0.0:
+        return math.inf
+    if dv * jerk <= accel * accel:
+        t = 2.0 * math.sqrt(dv / jerk)
+        dt = 1.0 / math.sqrt(jerk * dv)
+    else:
+        t = dv / accel + accel / jerk
+        dt = 1.0 / accel
+    return 0.5 * t + 0.5 * (v_end + v) * dt
+
+
+@njit(cache=True)
+def peak_feeds(va, vb, length, jerk, accel, cap):
+    out = np.empty(va.shape[0])
+    for i in range(va.shape[0]):
+        out[i] = peak_feed_scalar(va[i], vb[i], length[i], jerk[i], accel[i], cap[i])
+    return out
+
+
+@njit(cache=True)
+def _ramp_segments(v0, v1, jerk, accel):
+    """Durations t1, t2 and signed jerk of a ramp (see ncsim.ramps.ramp_pieces)."""
+    dv = abs(v1 - v0)
+    a_peak = min(accel, math.sqrt(dv * jerk))
+    t1 = a_peak / jerk
+    t2 = max(dv / accel - accel / jerk, 0.0) if a_peak >= accel else 0.0
+    sign = 1.0 if v1 >= v0 else -1.0
+    return t1, t2, sign * jerk
+
+
+@njit(cache=True)
+def section_pieces(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_dwell,
+                   final_dwell, reason_up, reason_down, reason_steady,
+                   phase_a, phase_b, phase_c, phase_stop, limit_dwell):
+    """Constant-jerk pieces of every section: dwell at the start knot, ramp A (up to three
+    pieces), steady B, ramp C. Returns piece arrays and each section's end time."""
+    n_sec = v_peak.shape[0]
+    cap_pieces = 8 * n_sec + 1
+    t0 = np.empty(cap_pieces)
+    s0 = np.empty(cap_pieces)
+    v0 = np.empty(cap_pieces)
+    a0 = np.empty(cap_pieces)
+    jj = np.empty(cap_pieces)
+    ph = np.empty(cap_pieces, dtype=np.int8)
+    lim = np.empty(cap_pieces, dtype=np.int8)
+    sec_end_t = np.empty(n_sec)
+    m = 0
+    t = 0.0
+    for i in range(n_sec):
+        s_start = sec_s0[i]
+        if start_dwell[i] > 0.0:
+            t0[m], s0[m], v0[m], a0[m], jj[m] = t, s_start, 0.0, 0.0, 0.0
+            ph[m], lim[m] = phase_stop, limit_dwell
+            t += start_dwell[i]
+            m += 1
+        va, vp, vb = v_knot[i], v_peak[i], v_knot[i + 1]
+        J, A = sec_jerk[i], sec_accel[i]
+        # ramp A: v_a -> v_peak
+        s, v, a = s_start, va, 0.0
+        t1, t2, jsig = _ramp_segments(va, vp, J, A)
+        for dur, jk in ((t1, jsig), (t2, 0.0), (t1, -jsig)):
+            if dur > 0.0:
+                t0[m], s0[m], v0[m], a0[m], jj[m] = t, s, v, a, jk
+                ph[m], lim[m] = phase_a, reason_up[i]
+                s = s + dur * (v + dur * (a / 2.0 + dur * jk / 6.0))
+                v = v + dur * (a + dur * jk / 2.0)
+                a = a + dur * jk
+                t += dur
+                m += 1
+        up = ramp_distance_scalar(va, vp, J, A)
+        down = ramp_distance_scalar(vp, vb, J, A)
+        steady = sec_len[i] - up - down
+        if steady > 0.0 and vp > 0.0:
+            t0[m], s0[m], v0[m], a0[m], jj[m] = t, s_start + up, vp, 0.0, 0.0
+            ph[m], lim[m] = phase_b, reason_steady[i]
+            t += steady / vp
+            m += 1
+        # ramp C: v_peak -> v_b
+        s, v, a = s_start + sec_len[i] - down, vp, 0.0
+        t1, t2, jsig = _ramp_segments(vp, vb, J, A)
+        for dur, jk in ((t1, jsig), (t2, 0.0), (t1, -jsig)):
+            if dur > 0.0:
+                t0[m], s0[m], v0[m], a0[m], jj[m] = t, s, v, a, jk
+                ph[m], lim[m] = phase_c, reason_down[i]
+                s = s + dur * (v + dur * (a / 2.0 + dur * jk / 6.0))
+                v = v + dur * (a + dur * jk / 2.0)
+                a = a + dur * jk
+                t += dur
+                m += 1
+        sec_end_t[i] = t
+    if final_dwell > 0.0:
+        t0[m], s0[m], v0[m], a0[m], jj[m] = t, sec_s0[n_sec - 1] + sec_len[n_sec - 1], 0.0, 0.0, 0.0
+        ph[m], lim[m] = phase_stop, limit_dwell
+        t += final_dwell
+        m += 1
+    times = np.empty(m + 1)
+    times[:m] = t0[:m]
+    times[m] = t
+    return times, s0[:m].copy(), v0[:m].copy(), a0[:m].copy(), jj[:m].copy(), ph[:m].copy(), lim[:m].copy(), sec_end_t
+
+
+@njit(cache=True)
+def _piece_time(s0, v0, a0, j, dt, target):
+    """tau in [0, dt] with s0 + v0 tau + a0 tau^2/2 + j tau^3/6 = target (safeguarded Newton)."""
+    lo, hi = 0.0, dt
+    s_end = s0 + dt * (v0 + dt * (a0 / 2.0 + dt * j / 6.0))
+    span = s_end - s0
+    tau = dt * (target - s0) / span if span > 0.0 else 0.5 * dt
+    tau = min(max(tau, 0.0), dt)
+    for _ in range(60):
+        f = s0 + tau * (v0 + tau * (a0 / 2.0 + tau * j / 6.0)) - target
+        if f < 0.0:
+            lo = tau
+        else:
+            hi = tau
+        vel = v0 + tau * (a0 + tau * j / 2.0)
+        nt = tau - f / vel if vel > 0.0 else 0.5 * (lo + hi)
+        if not (lo <= nt <= hi):
+            nt = 0.5 * (lo + hi)
+        if abs(nt - tau) <= 1e-13 * dt:
+            return nt
+        tau = nt
+    return tau
+
+
+@njit(cache=True)
+def junction_states(piece_t, piece_s, piece_v, piece_a, piece_j, piece_phase, phase_stop,
+                    s_junction, is_knot, knot_time, knot_feed):
+    """Arrival time, feed and acceleration at every junction, in one merge-like pass over
+    junctions and pieces (both ordered along the path)."""
+    n1 = s_junction.shape[0]
+    t_arr = np.empty(n1)
+    v_j = np.zeros(n1)
+    a_j = np.zeros(n1)
+    m = piece_s.shape[0]
+    k = 0
+    ki = 0
+    for i in range(n1):
+        if is_knot[i]:
+            t_arr[i] = knot_time[ki]
+            v_j[i] = knot_feed[ki]
+            ki += 1
+            continue
+        target = s_junction[i]
+        # the last piece starting at or before the target, backing off standstill pieces
+        while k + 1 < m and piece_s[k + 1] <= target:
+            k += 1
+        kk = k
+        while kk > 0 and piece_phase[kk] == phase_stop:
+            kk -= 1
+        dt = piece_t[kk + 1] - piece_t[kk]
+        tau = _piece_time(piece_s[kk], piece_v[kk], piece_a[kk], piece_j[kk], dt, target)
+        t_arr[i] = piece_t[kk] + tau
+        v_j[i] = piece_v[kk] + tau * (piece_a[kk] + tau * piece_j[kk] / 2.0)
+        a_j[i] = piece_a[kk] + tau * piece_j[kk]
+    return t_arr, v_j, a_j

@@ -1,0 +1,355 @@
+"""Look-ahead planner: per-block limits -> the controlled-jerk feed law of the whole path.
+
+The paper's kinematic model (§5.5) has three stages, applied here to every block:
+
+1. *Feed set point* of each block (eq. 5-12, Fig. 12 reading) -- ``limits.path_limits``.
+2. *Extremity feeds*: crossing feeds at the block transitions (eq. 13/15, corners, stops)
+   -- also ``limits.path_limits`` -- lowered here by the dynamic look-ahead so that every
+   change of feed is feasible.
+3. *Controlled-jerk law* per block: phase A (ramp up), B (steady at the set point) and C
+   (ramp down), the ramps starting and ending at zero acceleration; when B vanishes the
+   peak feed solves eq. 16 (``ramps.peak_feed_mm_s``).
+
+Generalisation for programs with many short blocks (HSM CAM output). The paper's law puts a
+zero-acceleration point at every block end. Across a run of short blocks that share the same
+set point and whose junctions do not limit the feed, that would make the feed crawl (each
+0.1 mm block could only change the feed a little), which no 840D does. So the planner works
+on *sections*:
+
+* a junction is a **knot** (a zero-acceleration point of the feed law) when something
+  happens there: start/end of the program, a stop, a junction cap below the adjacent set
+  points (corner, curvature jump, look-ahead), or a change of set point between the blocks;
+* the blocks between two consecutive knots form a **section**: they share one set point
+  ``V_st`` and the section uses the lowest jerk and acceleration of its blocks;
+* on a section the law is exactly the paper's: A from the start knot's feed, B at ``V_st``
+  if the section is long enough, C to the end knot's feed, eq. 16 otherwise. A paper arc is
+  its own section, so the paper's per-block law is reproduced unchanged.
+
+Knot feeds come from the classic two passes (grbl's planner, in ramp form): backward, each
+knot's feed is at most what one ramp can bring down to the next knot's feed over the
+section (``ramps.ramp_reach_mm_s``); forward, at most what one ramp can bring up from the
+previous knot. One backward then one forward pass reach the fixed point (a forward
+reduction never breaks a backward condition, since a raised ramp end only helps a fall).
+The passes are a sequential recurrence, compiled (``_kernels.knot_feeds``).
+
+Look-ahead (840D "dynamic look-ahead", paper §3.2): while a block runs, the NC knows only
+``lookahead_blocks`` blocks ahead and must be able to stop at the end of the last one. Block
+``k`` therefore gets the cap ``ramp_reach(0, S[k + D + 1] - S[k])`` and its end junction
+``ramp_reach(0, S[k + D + 1] - S[k + 1])``: with too short a look-ahead the feed rises inside
+each block and falls back at its end -- the sawtooth of a starved look-ahead -- and no
+deceleration is ever cut short by the end of the window.
+
+Why this is never faster than the limits allow: every knot feed respects its cap; inside a
+section every junction cap and block cap is at least the section's set point (otherwise the
+junction would be a knot), and the feed never exceeds it; every ramp has |j| <= J and
+|a| <= A of its section, which are the smallest of the section's blocks.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import minimum_filter1d
+
+from ._kernels import junction_states, knot_feeds_array, peak_feeds, section_pieces
+from .machine import MachineSpec
+from .motion import FULL_MODEL, Limit, ModelOptions, Motion, Phase
+from .path import Path
+from .ramps import ramp_distance_mm, ramp_reach_mm_s
+
+_REL = 1e-9  # relative tolerance when comparing feeds
+
+
+def plan(path: Path, machine: MachineSpec, options: ModelOptions = FULL_MODEL, *,
+         limits=None) -> Motion:
+    """Plan the feed law of ``path`` on ``machine`` (see the module docstring).
+
+    ``limits`` (a ``limits.PathLimits``) may be given to reuse or replace stage 1.
+    """
+    if limits is None:
+        from .limits import path_limits
+
+        limits = path_limits(path, machine, options)
+    n = path.n
+    length = np.asarray(path.length_mm, dtype=np.float64)
+    s_junction = np.concatenate([[0.0], np.cumsum(length)])
+
+    cap = np.array(limits.cap_mm_s, dtype=np.float64)
+    cap_limit = np.array(limits.cap_limit, dtype=np.int8)
+    jerk = np.array(limits.jerk_mm_s3, dtype=np.float64)
+    accel = np.array(limits.accel_mm_s2, dtype=np.float64)
+    jcap = np.array(limits.junction_cap_mm_s, dtype=np.float64)
+    jlimit = np.array(limits.junction_limit, dtype=np.int8)
+    dwell = np.array(limits.junction_dwell_s, dtype=np.float64)
+    if n == 0:
+        return _empty_motion(path, machine, options, dwell)
+
+    cap = _transparent_zero_length(cap, length)
+    if options.lookahead:
+        _apply_lookahead(cap, cap_limit, jcap, jlimit, s_junction, jerk, accel,
+                         machine.ncu.lookahead_blocks)
+
+    # crossing cap of every junction, including the set points of the blocks it joins
+    p = jcap.copy()
+    p[:-1] = np.minimum(p[:-1], cap)
+    p[1:] = np.minimum(p[1:], cap)
+    p[0] = min(p[0], 0.0) if np.isfinite(p[0]) else 0.0
+    p[-1] = 0.0
+    p = np.maximum(p, 0.0)
+
+    knots, knot_reason = _find_knots(p, cap, cap_limit, jcap, jlimit)
+    keep = p <= 0.0
+    keep[[0, n]] = True
+    lookahead_end = None
+    if options.lookahead:
+        # junction k is crossed while block k-1 runs: blocks up to k-1+D are prepared
+        lookahead_end = np.minimum(np.arange(n + 1) + machine.ncu.lookahead_blocks, n)
+    sol = _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end)
+    knots = sol["knots"]
+    pieces, t_arrive, v_j, a_j = _pieces_and_junctions(sol, s_junction, knot_reason,
+                                                       cap_limit, dwell)
+    block_of_section = np.searchsorted(knots, np.arange(n), side="right") - 1
+    sec_jerk, sec_accel = sol["sec_jerk"][block_of_section], sol["sec_accel"][block_of_section]
+    feed_max = _block_feed_max(v_j, sol, s_junction, block_of_section)
+    t_start = t_arrive[:-1] + dwell[:-1]
+    t_end = t_arrive[1:]
+    knot_mask = np.zeros(n + 1, dtype=bool)
+    knot_mask[knots] = True
+
+    return Motion(
+        path=path, machine=machine, options=options,
+        cap_mm_s=cap, cap_limit=cap_limit,
+        jerk_mm_s3=sec_jerk, accel_mm_s2=sec_accel,
+        t_start_s=t_start, t_end_s=t_end, feed_max_mm_s=feed_max,
+        junction_cap_mm_s=jcap, junction_limit=jlimit, junction_dwell_s=dwell,
+        v_junction_mm_s=v_j, a_junction_mm_s2=a_j, knot=knot_mask,
+        piece_t_s=pieces["t"], piece_s_mm=pieces["s"], piece_v_mm_s=pieces["v"],
+        piece_a_mm_s2=pieces["a"], piece_j_mm_s3=pieces["j"],
+        piece_phase=pieces["phase"], piece_limit=pieces["limit"],
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Stage 2: crossing caps, look-ahead, knots and knot feeds
+# ---------------------------------------------------------------------------------------------
+
+def _transparent_zero_length(cap: np.ndarray, length: np.ndarray) -> np.ndarray:
+    """A block without motion takes no time and limits nothing: it inherits the set point of
+    the block before it (or after it, at the start), so it never splits a section."""
+    zero = length <= 0.0
+    if not np.any(zero):
+        return cap
+    out = cap.copy()
+    out[zero] = np.nan
+    idx = np.where(~zero, np.arange(len(out)), 0)
+    np.maximum.accumulate(idx, out=idx)
+    filled = out[idx]
+    if np.isnan(filled[0]):  # leading zero-length blocks: take the first real set point
+        first = np.argmax(~zero) if np.any(~zero) else None
+        filled[np.isnan(filled)] = out[first] if first is not None else np.inf
+    return np.where(zero, filled, out)
+
+
+def _apply_lookahead(cap, cap_limit, jcap, jlimit, s_junction, jerk, accel, depth) -> None:
+    """Stop assumed at the end of the last prepared block (840D dynamic look-ahead).
+
+    Block k sees blocks k+1..k+depth: it must be able to stop at junction k+depth+1. Its
+    cap is the feed one ramp can brake to rest from within that window, measured from the
+    block start; its end junction gets the same measured from the junction. Windows that
+    reach the end of the path add nothing (the real stop is planned anyway).
+    """
+    n = len(cap)
+    k = np.arange(n)
+    end = k + depth + 1
+    cut = end < n
+    if not np.any(cut):
+        return
+    size = depth + 1
+    # window minimum of the ramp limits over blocks k..k+depth
+    origin = -(size // 2) if size % 2 else -(size // 2) + 1
+    j_win = minimum_filter1d(jerk, size=size, origin=origin, mode="nearest")
+    a_win = minimum_filter1d(accel, size=size, origin=origin, mode="nearest")
+    kk, e = k[cut], end[cut]
+    block_cap = ramp_reach_mm_s(0.0, s_junction[e] - s_junction[kk], j_win[cut], a_win[cut])
+    bind = block_cap < cap[kk]
+    cap[kk[bind]] = block_cap[bind]
+    cap_limit[kk[bind]] = Limit.LOOKAHEAD
+    junction_cap = ramp_reach_mm_s(0.0, s_junction[e] - s_junction[kk + 1], j_win[cut], a_win[cut])
+    bind = junction_cap < jcap[kk + 1]
+    jcap[kk[bind] + 1] = junction_cap[bind]
+    jlimit[kk[bind] + 1] = Limit.LOOKAHEAD
+
+
+def _find_knots(p, cap, cap_limit, jcap, jlimit):
+    """Zero-acceleration points: ends, junctions that limit below both set points, and
+    changes of set point. Returns the knot junction indices and, per junction, the reason
+    a ramp heads to or leaves it (a ``Limit``)."""
+    n = len(cap)
+    left = np.concatenate([[np.inf], cap])    # set point of the block ending at junction k
+    right = np.concatenate([cap, [np.inf]])   # set point of the block starting at junction k
+    lower = np.minimum(left, right)
+    own = p < lower * (1.0 - _REL)
+    change = ~np.isclose(left, right, rtol=_REL, atol=0.0)
+    change[0] = change[-1] = True
+    knot = own | change
+    knots = np.nonzero(knot)[0]
+
+    reason = np.full(n + 1, Limit.NONE, dtype=np.int8)
+    lower_side = np.where(left <= right, np.concatenate([[0], cap_limit]),
+                          np.concatenate([cap_limit, [0]]))
+    reason[:] = lower_side
+    junction_binds = jcap <= lower * (1.0 + _REL)
+    reason[junction_binds] = jlimit[junction_binds]
+    reason[0] = jlimit[0] if jcap[0] < 0.5 else Limit.PROGRAM_END
+    reason[0] = Limit.PROGRAM_END if jlimit[0] == Limit.NONE else reason[0]
+    reason[n] = Limit.PROGRAM_END if jlimit[n] == Limit.NONE else jlimit[n]
+    return knots, reason
+
+
+def _solve_knots(knots, p, cap, jerk, accel, s_junction):
+    """Section limits, knot feeds (both passes) and section peaks (eq. 16) for a knot set.
+
+    A section's set point is the lowest set point of its blocks and crossing cap of its
+    inner junctions, so its law can exceed neither.
+    """
+    sec_first = knots[:-1]
+    sec_len = s_junction[knots[1:]] - s_junction[knots[:-1]]
+    sec_jerk = np.minimum.reduceat(jerk, sec_first)
+    sec_accel = np.minimum.reduceat(accel, sec_first)
+    end_cap = p[1:].copy()                  # crossing cap at the end of each block ...
+    end_cap[knots[1:] - 1] = np.inf         # ... unless that end is a knot
+    sec_cap = np.minimum(np.minimum.reduceat(cap, sec_first),
+                         np.minimum.reduceat(end_cap, sec_first))
+    w = p[knots].copy()                     # a knot is also in its sections' set points
+    w[:-1] = np.minimum(w[:-1], sec_cap)
+    w[1:] = np.minimum(w[1:], sec_cap)
+    v_knot = knot_feeds_array(w, sec_len, sec_jerk, sec_accel)
+    v_peak = peak_feeds(v_knot[:-1], v_knot[1:], sec_len, sec_jerk, sec_accel, sec_cap)
+    return dict(knots=knots, sec_len=sec_len, sec_jerk=sec_jerk, sec_accel=sec_accel,
+                sec_cap=sec_cap, v_knot=v_knot, v_peak=v_peak)
+
+
+def _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end,
+                  max_rounds=8):
+    """Drop knots that do not limit anything, so that ramps run across them.
+
+    The first knot set marks every junction that *might* limit the feed. A knot whose feed
+    stays below its own crossing cap, where neither adjacent section reaches the lower of
+    their set points nor that cap, is only a zero-acceleration stop in the middle of a
+    ramp: it is removed and its two sections merge (set point, jerk and acceleration = the
+    smaller ones, the removed junction's cap included), which keeps every cap.
+
+    One condition is on the state, not the feed: with a finite look-ahead the tool must be
+    able to stop, from its feed *and acceleration* at junction k, before ``lookahead_end[k]``.
+    A junction passed while still accelerating may fail that although its feed is below the
+    cap; it becomes a knot for good (at a knot the acceleration is zero and the cap suffices).
+    """
+    sol = _solve_knots(knots, p, cap, jerk, accel, s_junction)
+    for _ in range(max_rounds):
+        k = sol["knots"]
+        inner = np.arange(1, len(k) - 1)
+        if inner.size == 0:
+            break
+        peak, scap = sol["v_peak"], sol["sec_cap"]
+        merged_cap = np.minimum(np.minimum(scap[inner - 1], scap[inner]), p[k[inner]])
+        highest = np.maximum(peak[inner - 1], peak[inner])
+        removable = ~keep[k[inner]] & (highest < merged_cap * (1.0 - 1e-6))
+        if not np.any(removable):
+            break
+        trial = _solve_knots(np.delete(k, inner[removable]), p, cap, jerk, accel, s_junction)
+        if lookahead_end is not None:
+            trial = _pin_unstoppable(trial, p, cap, jerk, accel, s_junction, keep, lookahead_end)
+        sol = trial
+    return sol
+
+
+def _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end):
+    """Make knots of the junctions from which the tool could not stop inside the window."""
+    for _ in range(64):
+        v_j, a_j = _inner_states(sol, s_junction)
+        sec = np.searchsorted(sol["knots"], np.arange(len(s_junction)), side="right") - 1
+        sec = np.clip(sec, 0, len(sol["v_peak"]) - 1)
+        stop = stopping_distance_mm(v_j, a_j, sol["sec_jerk"][sec], sol["sec_accel"][sec])
+        room = s_junction[lookahead_end] - s_junction
+        bad = stop > room * (1.0 + 1e-9) + 1e-9
+        bad[sol["knots"]] = False
+        if not np.any(bad):
+            return sol
+        keep |= bad
+        sol = _solve_knots(np.union1d(sol["knots"], np.nonzero(bad)[0]), p, cap, jerk, accel,
+                           s_junction)
+    return sol
+
+
+def _inner_states(sol, s_junction):
+    """Feed and acceleration at every junction for a solved knot set."""
+    dwell = np.zeros(len(s_junction))
+    zeros = np.zeros(len(s_junction), dtype=np.int8)
+    _, _, v_j, a_j = _pieces_and_junctions(sol, s_junction, zeros, zeros, dwell)
+    return v_j, a_j
+
+
+def stopping_distance_mm(v_mm_s, a_mm_s2, jerk_mm_s3, accel_mm_s2):
+    """Distance to rest from feed v and tangential acceleration a: first bring a > 0 back to
+    zero at jerk -J (the feed still grows by a^2/2J), then one ramp down to rest. With
+    a <= 0 the zero-acceleration ramp from v is an upper bound."""
+    v = np.asarray(v_mm_s, dtype=np.float64)
+    a = np.maximum(np.asarray(a_mm_s2, dtype=np.float64), 0.0)
+    j = np.asarray(jerk_mm_s3, dtype=np.float64)
+    t1 = a / j
+    d1 = v * t1 + a * t1 * t1 / 2.0 - j * t1 ** 3 / 6.0
+    v1 = v + a * a / (2.0 * j)
+    return d1 + ramp_distance_mm(v1, 0.0, j, accel_mm_s2)
+
+
+# ---------------------------------------------------------------------------------------------
+# Stage 3: the controlled-jerk law of every section as constant-jerk pieces
+# ---------------------------------------------------------------------------------------------
+
+def _pieces_and_junctions(sol, s_junction, knot_reason, cap_limit, dwell):
+    """The section laws as constant-jerk pieces, and the state at every junction."""
+    knots = sol["knots"]
+    times, s0, v0, a0, jj, ph, lim, sec_end_t = section_pieces(
+        sol["v_knot"], sol["v_peak"], sol["sec_len"], sol["sec_jerk"], sol["sec_accel"],
+        s_junction[knots[:-1]], dwell[knots[:-1]], float(dwell[knots[-1]]),
+        knot_reason[knots[:-1]], knot_reason[knots[1:]], cap_limit[knots[:-1]],
+        int(Phase.A), int(Phase.B), int(Phase.C), int(Phase.STOP), int(Limit.DWELL))
+    pieces = dict(t=times, s=s0, v=v0, a=a0, j=jj, phase=ph, limit=lim)
+    is_knot = np.zeros(len(s_junction), dtype=np.bool_)
+    is_knot[knots] = True
+    knot_time = np.concatenate([[0.0], sec_end_t])
+    t_arr, v_j, a_j = junction_states(times, s0, v0, a0, jj, ph, int(Phase.STOP),
+                                      s_junction, is_knot, knot_time, sol["v_knot"])
+    return pieces, t_arr, v_j, a_j
+
+
+def _block_feed_max(v_j, sol, s_junction, block_sec):
+    """Highest feed inside each block: its end feeds, or its section's peak if the peak (or
+    the steady phase) lies in the block."""
+    knots, v_knot, v_peak = sol["knots"], sol["v_knot"], sol["v_peak"]
+    jerk, accel, length = sol["sec_jerk"], sol["sec_accel"], sol["sec_len"]
+    s0 = s_junction[knots[:-1]]
+    peak_from = s0 + ramp_distance_mm(v_knot[:-1], v_peak, jerk, accel)
+    peak_to = s0 + length - ramp_distance_mm(v_peak, v_knot[1:], jerk, accel)
+    b = np.arange(len(block_sec))
+    sec = block_sec
+    overlap = (s_junction[b] <= peak_to[sec] + 1e-9) & (s_junction[b + 1] >= peak_from[sec] - 1e-9)
+    fmax = np.maximum(v_j[:-1], v_j[1:])
+    return np.where(overlap, np.maximum(fmax, v_peak[sec]), fmax)
+
+
+def _empty_motion(path, machine, options, dwell):
+    total = float(dwell.sum()) if len(dwell) else 0.0
+    e = np.zeros(0)
+    ei = np.zeros(0, dtype=np.int8)
+    t = np.array([0.0, total]) if total > 0 else np.array([0.0])
+    one = np.zeros(1) if total > 0 else e
+    return Motion(path=path, machine=machine, options=options,
+                  cap_mm_s=e, cap_limit=ei, jerk_mm_s3=e, accel_mm_s2=e,
+                  t_start_s=e, t_end_s=e, feed_max_mm_s=e,
+                  junction_cap_mm_s=np.zeros(1), junction_limit=np.array([Limit.PROGRAM_END], dtype=np.int8),
+                  junction_dwell_s=dwell if len(dwell) else np.zeros(1),
+                  v_junction_mm_s=np.zeros(1), a_junction_mm_s2=np.zeros(1),
+                  knot=np.ones(1, dtype=bool),
+                  piece_t_s=t, piece_s_mm=one, piece_v_mm_s=one, piece_a_mm_s2=one,
+                  piece_j_mm_s3=one,
+                  piece_phase=np.full(len(one), Phase.STOP, dtype=np.int8),
+                  piece_limit=np.full(len(one), Limit.DWELL, dtype=np.int8))
