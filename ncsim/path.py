@@ -256,6 +256,8 @@ class PathBuilder:
                 raise TypeError(f"segment column {name!r} is required")
             else:
                 v = default
+            if shape and np.ndim(v) == 0:  # a scalar default of a vector column
+                v = np.full(shape, v, dtype=np.float64)
             self._rows[name].append(v)
         self._n += 1
 
@@ -264,10 +266,7 @@ class PathBuilder:
             return
         for name, (dtype, shape, _) in _COLUMNS.items():
             rows = self._rows[name]
-            arr = np.array(rows, dtype=dtype)
-            if shape and arr.ndim == 1:  # a scalar default broadcast over a vector column
-                arr = np.repeat(arr[:, None], shape[0], axis=1)
-            self._chunks[name].append(arr.reshape((-1, *shape)))
+            self._chunks[name].append(np.array(rows, dtype=dtype).reshape((-1, *shape)))
             self._rows[name] = []
 
     def add_line(self, start_mm, end_mm, *, line: int, feed_mm_s: float, **modal) -> None:
