@@ -287,3 +287,65 @@ def junction_states(piece_t, piece_s, piece_v, piece_a, piece_j, piece_phase, ph
         v_j[i] = piece_v[kk] + tau * (piece_a[kk] + tau * piece_j[kk] / 2.0)
         a_j[i] = piece_a[kk] + tau * piece_j[kk]
     return t_arr, v_j, a_j
+
+
+@njit(cache=True)
+def approach_stop_distance_scalar(v_start, v_peak, jerk, accel):
+    """Scalar twin of ``ncsim.plan.approach_stop_distance_mm``."""
+    dv = max(v_peak - v_start, 0.0)
+    a_p = min(accel, math.sqrt(jerk * dv))
+    t1 = a_p / jerk
+    return v_peak * t1 - a_p ** 3 / (6.0 * jerk * jerk) + ramp_distance_scalar(v_peak, 0.0, jerk, accel)
+
+
+@njit(cache=True)
+def approach_feed_scalar(v_start, room, jerk, accel):
+    """Highest V >= v_start whose approach ramp can always stop within ``room`` (bisection)."""
+    if approach_stop_distance_scalar(v_start, v_start, jerk, accel) > room:
+        return v_start
+    lo = v_start
+    hi = max(ramp_reach_scalar(0.0, room, jerk, accel), lo)
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        if approach_stop_distance_scalar(v_start, mid, jerk, accel) <= room:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo <= 1e-12 * max(hi, 1.0):
+            break
+    return lo
+
+
+@njit(cache=True)
+def creep_caps(p, keep, s_junction, start, end, v_start, room, jerk, accel, cap, tol):
+    """Look-ahead creep (see ``ncsim.plan._fit_lookahead``): for each section, successive
+    approach ramps towards its set point, each ending at a junction made a knot; within
+    ``tol`` of the set point the feed holds. Lowers ``p`` and sets ``keep`` in place."""
+    for i in range(start.shape[0]):
+        a, e = start[i], end[i]
+        v = v_start[i]
+        pos = a
+        while True:
+            target = approach_feed_scalar(v, room[i], jerk[i], accel[i])
+            if target >= cap[i] * (1.0 - tol) or target <= v * (1.0 + 1e-12):
+                # hold: nothing after the last knot may exceed the reached feed
+                hold = target if target <= v * (1.0 + 1e-12) else target
+                for k in range(pos + 1, e):
+                    if p[k] > hold:
+                        p[k] = hold
+                if target <= v * (1.0 + 1e-12) and pos + 1 < e:
+                    keep[pos + 1] = True
+                break
+            ramp_end = s_junction[pos] + ramp_distance_scalar(v, target, jerk[i], accel[i])
+            q = pos + 1
+            while q < e and s_junction[q] < ramp_end * (1.0 - 1e-12):
+                q += 1
+            for k in range(pos + 1, q + 1):
+                if k < e and p[k] > target:
+                    p[k] = target
+            if q >= e:
+                break
+            keep[q] = True
+            pos = q
+            v = target
+    return p

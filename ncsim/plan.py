@@ -49,13 +49,14 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import minimum_filter1d
 
-from ._kernels import junction_states, knot_feeds_array, peak_feeds, section_pieces
+from ._kernels import creep_caps, junction_states, knot_feeds_array, peak_feeds, section_pieces
 from .machine import MachineSpec
 from .motion import FULL_MODEL, Limit, ModelOptions, Motion, Phase
 from .path import Path
 from .ramps import ramp_distance_mm, ramp_reach_mm_s
 
 _REL = 1e-9  # relative tolerance when comparing feeds
+CREEP_TOL = 0.01  # look-ahead: hold within 1 % of the braking-limited feed (see _pin_unstoppable)
 
 
 def plan(path: Path, machine: MachineSpec, options: ModelOptions = FULL_MODEL, *,
@@ -102,10 +103,10 @@ def plan(path: Path, machine: MachineSpec, options: ModelOptions = FULL_MODEL, *
     if options.lookahead:
         # junction k is crossed while block k-1 runs: blocks up to k-1+D are prepared
         lookahead_end = np.minimum(np.arange(n + 1) + machine.ncu.lookahead_blocks, n)
-    sol = _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end)
+    sol, p = _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end)
     knots = sol["knots"]
     pieces, t_arrive, v_j, a_j = _pieces_and_junctions(sol, s_junction, knot_reason,
-                                                       cap_limit, dwell)
+                                                       cap_limit, jlimit, dwell)
     block_of_section = np.searchsorted(knots, np.arange(n), side="right") - 1
     sec_jerk, sec_accel = sol["sec_jerk"][block_of_section], sol["sec_accel"][block_of_section]
     feed_max = _block_feed_max(v_j, sol, s_junction, block_of_section)
@@ -216,15 +217,29 @@ def _solve_knots(knots, p, cap, jerk, accel, s_junction):
     sec_accel = np.minimum.reduceat(accel, sec_first)
     end_cap = p[1:].copy()                  # crossing cap at the end of each block ...
     end_cap[knots[1:] - 1] = np.inf         # ... unless that end is a knot
-    sec_cap = np.minimum(np.minimum.reduceat(cap, sec_first),
-                         np.minimum.reduceat(end_cap, sec_first))
+    block_min = np.minimum.reduceat(cap, sec_first)
+    junction_min = np.minimum.reduceat(end_cap, sec_first)
+    sec_cap = np.minimum(block_min, junction_min)
     w = p[knots].copy()                     # a knot is also in its sections' set points
     w[:-1] = np.minimum(w[:-1], sec_cap)
     w[1:] = np.minimum(w[1:], sec_cap)
     v_knot = knot_feeds_array(w, sec_len, sec_jerk, sec_accel)
     v_peak = peak_feeds(v_knot[:-1], v_knot[1:], sec_len, sec_jerk, sec_accel, sec_cap)
     return dict(knots=knots, sec_len=sec_len, sec_jerk=sec_jerk, sec_accel=sec_accel,
-                sec_cap=sec_cap, v_knot=v_knot, v_peak=v_peak)
+                sec_cap=sec_cap, v_knot=v_knot, v_peak=v_peak,
+                sec_cap_from=_argmin_per_section(cap, end_cap, sec_first, block_min, junction_min))
+
+
+def _argmin_per_section(cap, end_cap, sec_first, block_min, junction_min):
+    """Where each section's set point comes from: the first block holding the lowest set
+    point (>= 0), or -(j + 1) for the inner junction j holding a lower crossing cap."""
+    n = len(cap)
+    sec_of_block = np.repeat(np.arange(len(sec_first)), np.diff(np.append(sec_first, n)))
+    idx = np.arange(n)
+    first_block = np.minimum.reduceat(np.where(cap <= block_min[sec_of_block], idx, n), sec_first)
+    first_junction = np.minimum.reduceat(np.where(end_cap <= junction_min[sec_of_block], idx, n),
+                                         sec_first)
+    return np.where(junction_min < block_min, -(first_junction + 2), first_block)
 
 
 def _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end,
@@ -254,63 +269,113 @@ def _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end,
         removable = ~keep[k[inner]] & (highest < merged_cap * (1.0 - 1e-6))
         if not np.any(removable):
             break
-        trial = _solve_knots(np.delete(k, inner[removable]), p, cap, jerk, accel, s_junction)
-        if lookahead_end is not None:
-            trial = _pin_unstoppable(trial, p, cap, jerk, accel, s_junction, keep, lookahead_end)
-        sol = trial
-    return sol
+        sol = _solve_knots(np.delete(k, inner[removable]), p, cap, jerk, accel, s_junction)
+    if lookahead_end is not None:
+        sol, p = _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end)
+    return sol, p
 
 
-def _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end):
-    """Make knots of the junctions from which the tool could not stop inside the window."""
-    for _ in range(64):
+def _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end, rounds=8):
+    """Bring every junction state inside the look-ahead's braking room.
+
+    The critical state on a ramp towards V is where its last -J piece begins: stopping from
+    there takes that piece plus one ramp from V to rest (``approach_stop_distance_mm``). A
+    section whose rise fails at some junction is rebuilt as a creep (``_kernels.creep_caps``):
+    ramps to the highest approach feed that passes, each ending at a new knot, then the next
+    (smaller) step, until within ``CREEP_TOL`` of the set point, where the feed holds -- as an
+    NC re-planning at every new block edges up to the braking-limited feed. Repeats until no
+    junction fails.
+    """
+    p = p.copy()
+    n1 = len(s_junction)
+    room = s_junction[lookahead_end] - s_junction
+    for _ in range(rounds):
+        knots = sol["knots"]
         v_j, a_j = _inner_states(sol, s_junction)
-        sec = np.searchsorted(sol["knots"], np.arange(len(s_junction)), side="right") - 1
-        sec = np.clip(sec, 0, len(sol["v_peak"]) - 1)
+        sec = np.clip(np.searchsorted(knots, np.arange(n1), side="right") - 1, 0,
+                      len(sol["v_peak"]) - 1)
         stop = stopping_distance_mm(v_j, a_j, sol["sec_jerk"][sec], sol["sec_accel"][sec])
-        room = s_junction[lookahead_end] - s_junction
         bad = stop > room * (1.0 + 1e-9) + 1e-9
-        bad[sol["knots"]] = False
+        bad[knots] = False
+        bad[lookahead_end >= n1 - 1] = False  # the window reaches the real (planned) end
         if not np.any(bad):
-            return sol
-        keep |= bad
-        sol = _solve_knots(np.union1d(sol["knots"], np.nonzero(bad)[0]), p, cap, jerk, accel,
-                           s_junction)
-    return sol
+            break
+        bad_idx = np.nonzero(bad)[0]
+        sections, first = np.unique(sec[bad_idx], return_index=True)
+        # the tightest room over the failing section bounds every step of its creep
+        sec_room = np.full(len(sol["v_peak"]), np.inf)
+        np.minimum.at(sec_room, sec[bad_idx], room[bad_idx])
+        creep_caps(p, keep, s_junction, knots[sections].astype(np.int64),
+                   knots[sections + 1].astype(np.int64), sol["v_knot"][sections],
+                   sec_room[sections], sol["sec_jerk"][sections], sol["sec_accel"][sections],
+                   sol["sec_cap"][sections], CREEP_TOL)
+        new_knots = np.union1d(knots, np.nonzero(keep)[0])
+        sol = _solve_knots(new_knots, p, cap, jerk, accel, s_junction)
+    return sol, p
+
+
+def approach_stop_distance_mm(v_start_mm_s, v_peak_mm_s, jerk_mm_s3, accel_mm_s2):
+    """Longest stopping distance met on a ramp from v_start up to v_peak: from the start of
+    its last -J piece (acceleration a_p, duration a_p/J, covering V a_p/J - a_p^3/6J^2) the
+    stop finishes that piece and ramps from V to rest."""
+    dv = np.maximum(v_peak_mm_s - v_start_mm_s, 0.0)
+    a_p = np.minimum(accel_mm_s2, np.sqrt(jerk_mm_s3 * dv))
+    t1 = a_p / jerk_mm_s3
+    last = v_peak_mm_s * t1 - a_p ** 3 / (6.0 * jerk_mm_s3 ** 2)
+    return last + ramp_distance_mm(v_peak_mm_s, 0.0, jerk_mm_s3, accel_mm_s2)
 
 
 def _inner_states(sol, s_junction):
     """Feed and acceleration at every junction for a solved knot set."""
     dwell = np.zeros(len(s_junction))
     zeros = np.zeros(len(s_junction), dtype=np.int8)
-    _, _, v_j, a_j = _pieces_and_junctions(sol, s_junction, zeros, zeros, dwell)
+    _, _, v_j, a_j = _pieces_and_junctions(sol, s_junction, zeros, zeros, zeros, dwell)
     return v_j, a_j
 
 
 def stopping_distance_mm(v_mm_s, a_mm_s2, jerk_mm_s3, accel_mm_s2):
-    """Distance to rest from feed v and tangential acceleration a: first bring a > 0 back to
-    zero at jerk -J (the feed still grows by a^2/2J), then one ramp down to rest. With
-    a <= 0 the zero-acceleration ramp from v is an upper bound."""
+    """Shortest distance to rest from feed v and tangential acceleration a (jerk J, accel A).
+
+    * a >= 0: first bring a back to zero at jerk -J (the feed still grows by a^2/2J), then
+      one ramp from there to rest.
+    * a < 0 with |a| < A: the state lies on the first piece of a braking ramp that began at
+      rest acceleration from v_s = v + a^2/2J; the rest of that ramp is the stop.
+    * |a| >= A: the state is on the constant-deceleration part: brake at A down to A^2/2J,
+      then the closing +J piece (A^3/6J^2).
+    """
     v = np.asarray(v_mm_s, dtype=np.float64)
-    a = np.maximum(np.asarray(a_mm_s2, dtype=np.float64), 0.0)
+    a = np.asarray(a_mm_s2, dtype=np.float64)
     j = np.asarray(jerk_mm_s3, dtype=np.float64)
-    t1 = a / j
-    d1 = v * t1 + a * t1 * t1 / 2.0 - j * t1 ** 3 / 6.0
-    v1 = v + a * a / (2.0 * j)
-    return d1 + ramp_distance_mm(v1, 0.0, j, accel_mm_s2)
+    A = np.asarray(accel_mm_s2, dtype=np.float64)
+    ap = np.maximum(a, 0.0)
+    t = ap / j
+    rising = v * t + ap * t * t / 2.0 - j * t ** 3 / 6.0 \
+        + ramp_distance_mm(v + ap * ap / (2.0 * j), 0.0, j, A)
+    an = np.minimum(np.maximum(-a, 0.0), A)
+    t = an / j
+    v_s = v + an * an / (2.0 * j)
+    braking = ramp_distance_mm(v_s, 0.0, j, A) - (v_s * t - j * t ** 3 / 6.0)
+    v_f = A * A / (2.0 * j)
+    constant = np.maximum(v * v - v_f * v_f, 0.0) / (2.0 * A) + A ** 3 / (6.0 * j * j)
+    return np.where(a >= 0.0, rising, np.where(-a < A * (1.0 - 1e-12), braking, constant))
 
 
 # ---------------------------------------------------------------------------------------------
 # Stage 3: the controlled-jerk law of every section as constant-jerk pieces
 # ---------------------------------------------------------------------------------------------
 
-def _pieces_and_junctions(sol, s_junction, knot_reason, cap_limit, dwell):
+def _pieces_and_junctions(sol, s_junction, knot_reason, cap_limit, junction_limit, dwell):
     """The section laws as constant-jerk pieces, and the state at every junction."""
     knots = sol["knots"]
+    src = sol["sec_cap_from"]
+    # steady phase: the limit of the block or inner junction that sets the section's set point
+    # (-(j + 2) encodes junction j + 1, the end of block j)
+    steady_reason = np.where(src >= 0, cap_limit[np.maximum(src, 0)],
+                             junction_limit[np.maximum(-src - 1, 0)]).astype(np.int8)
     times, s0, v0, a0, jj, ph, lim, sec_end_t = section_pieces(
         sol["v_knot"], sol["v_peak"], sol["sec_len"], sol["sec_jerk"], sol["sec_accel"],
         s_junction[knots[:-1]], dwell[knots[:-1]], float(dwell[knots[-1]]),
-        knot_reason[knots[:-1]], knot_reason[knots[1:]], cap_limit[knots[:-1]],
+        knot_reason[knots[:-1]], knot_reason[knots[1:]], steady_reason,
         int(Phase.A), int(Phase.B), int(Phase.C), int(Phase.STOP), int(Limit.DWELL))
     pieces = dict(t=times, s=s0, v=v0, a=a0, j=jj, phase=ph, limit=lim)
     is_knot = np.zeros(len(s_junction), dtype=np.bool_)

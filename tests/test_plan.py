@@ -205,3 +205,15 @@ def test_dwell_is_standstill_time(mikron):
     assert mo.total_time_s == pytest.approx(2 * one + 0.5, rel=1e-9)
     assert mo.t_start_s[1] - mo.t_end_s[0] == pytest.approx(0.5)
     assert Phase.STOP in set(mo.piece_phase)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(0.0, 300.0), st.floats(-1.0, 1.0), st.floats(500.0, 50000.0), st.floats(100.0, 5000.0))
+def test_stopping_distance_matches_ruckig(v, a_share, jerk, accel):
+    from ncsim.plan import stopping_distance_mm
+
+    a = a_share * accel
+    if a < 0 and v - a * a / (2 * jerk) < 0:
+        return  # the feed would reverse before the deceleration is undone: not a path state
+    ours = float(stopping_distance_mm(v, a, jerk, accel))
+    assert ours == pytest.approx(stopping_distance(v, a, accel, jerk), rel=1e-6, abs=1e-7)
