@@ -1,0 +1,66 @@
+"""`ncsim batch`: local processes and a local Dask cluster give the same answers."""
+from __future__ import annotations
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from ncsim.batch import expand_programs, run_batch, simulate_one
+from ncsim.cli_batch import batch
+from ncsim.errors import UsageError
+from ncsim.simulate import simulate
+
+PROGRAMS = ["programs/circle_r2p5_f6000.mpf", "programs/circle_r30_f9000.mpf",
+            "programs/spiral_semi_f6000.mpf"]
+
+
+@pytest.fixture(autouse=True)
+def _repo_cwd(repo_root, monkeypatch):
+    monkeypatch.chdir(repo_root)
+
+
+def test_batch_matches_single_runs(mikron):
+    results = run_batch(PROGRAMS, mikron, jobs=2)
+    assert [r.program for r in results] == PROGRAMS
+    for r in results:
+        assert r.ok, r.error
+        assert r.cycle_time_s == pytest.approx(simulate(r.program, mikron).cycle_time_s, rel=1e-12)
+
+
+def test_batch_reports_a_bad_program_without_stopping(tmp_path, mikron):
+    bad = tmp_path / "bad.mpf"
+    bad.write_text("G1 X10 Y10\n")  # no feed ever set
+    results = run_batch([PROGRAMS[0], str(bad)], mikron, jobs=1)
+    assert results[0].ok
+    assert not results[1].ok and str(bad) in results[1].error and ":1:" in results[1].error
+
+
+def test_cli_batch_json_and_exit_codes(tmp_path):
+    runner = CliRunner()
+    res = runner.invoke(batch, ["programs/circle_r30_*.mpf", "--machine", "mikron", "-j", "2", "--json"])
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.output)
+    assert len(data["results"]) == 4 and all(r["ok"] for r in data["results"])
+    bad = tmp_path / "bad.mpf"
+    bad.write_text("G1 X10 F100\nG2 X20\n")  # arc with no centre or radius
+    res = runner.invoke(batch, [str(bad), "--machine", "mikron", "-j", "1"])
+    assert res.exit_code == 2
+    assert f"{bad}:2:" in res.output
+
+
+def test_no_match_is_a_usage_error():
+    with pytest.raises(UsageError, match="no program matches"):
+        expand_programs(["programs/does_not_exist_*.mpf"])
+
+
+def test_dask_local_cluster_gives_the_same_results(mikron):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        dask_results = run_batch(PROGRAMS, mikron, scheduler=cluster.scheduler_address)
+    local = [simulate_one(p, mikron) for p in PROGRAMS]
+    assert [r.program for r in dask_results] == PROGRAMS
+    for d, loc in zip(dask_results, local):
+        assert d.ok and d.cycle_time_s == pytest.approx(loc.cycle_time_s, rel=1e-12)
+    assert len({r.worker for r in dask_results}) >= 1
