@@ -1,0 +1,97 @@
+"""`ncsim parse`: one line per segment and a summary; warnings on stderr; errors exit 2 in one line."""
+from __future__ import annotations
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from ncsim.cli import cli
+
+
+def invoke(*args):
+    return CliRunner().invoke(cli, ["parse", *map(str, args)])
+
+
+@pytest.fixture
+def program(tmp_path):
+    p = tmp_path / "part.mpf"
+    p.write_text("G17 G90 G64 SOFT\nG0 X0 Y0 Z5\nG1 Z0 F600\nG3 X10 Y0 I5 J0\nG54 G1 X12\nB30\nM30\n")
+    return p
+
+
+def test_lists_segments_and_summary(program):
+    r = invoke(program)
+    assert r.exit_code == 0, r.stderr
+    out = r.stdout.splitlines()
+    assert len(out) == 5
+    assert out[1].split()[1].endswith("part.mpf:3") and "feed_mm_min=600" in out[1]
+    arc = out[2]
+    assert " arc " in arc and "centre=(5.0000, 0.0000, 0.0000)" in arc and "radius_mm=5.0000" in arc
+    assert "sweep_deg=180.000" in arc and "SOFT" in arc and "G64" in arc
+    assert "G0" in out[0].split() and "feed_mm_min=rapid" in out[0]
+    assert out[-1].startswith("segments: 4 (3 lines, 1 arcs)  total length: 27.708 mm")
+    # warnings: G54 without offsets, rotary axis B
+    assert [w.split(": warning: ")[0] for w in r.stderr.splitlines()] == [
+        f"{program}:5:1", f"{program}:6:1"]
+
+
+def test_limit_and_json(program):
+    r = invoke(program, "--limit", 1)
+    assert r.exit_code == 0 and len(r.stdout.splitlines()) == 3 and "3 more segments" in r.stdout
+    data = json.loads(invoke(program, "--json", "--limit", 2).stdout)
+    assert [s["kind"] for s in data["segments"]] == ["line", "line"]
+    assert data["segments"][1]["feed_mm_min"] == pytest.approx(600)
+    assert data["summary"]["segments"] == 4 and data["summary"]["arcs"] == 1
+    assert len(data["warnings"]) == 2
+
+
+def test_setup_file_and_machine(program, tmp_path):
+    setup = tmp_path / "setup.toml"
+    setup.write_text("[work_offsets]\nG54 = [100.0, 0.0, 0.0]\n")
+    data = json.loads(invoke(program, "--machine", "mikron", "--setup", setup, "--json").stdout)
+    assert data["segments"][3]["end_mm"] == [112.0, 0.0, 0.0]
+    assert len(data["warnings"]) == 1
+
+
+@pytest.mark.parametrize("text, where", [
+    ("G1 X1 F100\nG1 X=(\n", "2:7: unexpected end of block"),
+    ("G1 X1\n", "1:1: G1 without a feed"),
+    ("G1 F100\nG2 X5 Y5\n", "2:1: G2 without centre"),
+    ("G1 X5 F100\nG3 X-5.1 I-5\n", "2:1: circle end point error"),
+    ("R1=1/0\n", "1:5: division by zero"),
+    ("GOTOF NOWHERE\n", "1:7: jump destination NOWHERE not found"),
+    ("G1 Q1\n", "1:4: unknown word Q"),
+])
+def test_errors_exit_2_with_one_located_line(tmp_path, text, where):
+    p = tmp_path / "bad.mpf"
+    p.write_text(text)
+    r = invoke(p)
+    assert r.exit_code == 2
+    assert r.stdout == ""
+    assert r.stderr.splitlines() == [r.stderr.strip()] and r.stderr.startswith(f"{p}:{where}")
+    assert "Traceback" not in r.stderr
+
+
+def test_missing_files_and_bad_setup(tmp_path, program):
+    r = invoke(tmp_path / "nope.mpf")
+    assert r.exit_code == 2 and "cannot read program" in r.stderr
+    bad = tmp_path / "setup.toml"
+    bad.write_text("[work_offsets]\nG54 = 5\n")
+    r = invoke(program, "--setup", bad)
+    assert r.exit_code == 2 and r.stderr.strip() == f"{bad}: work_offsets.G54: must be a list of three numbers [x_mm, y_mm, z_mm]"
+    r = invoke(program, "--machine", "no_such_machine")
+    assert r.exit_code == 2 and "no_such_machine" in r.stderr
+
+
+def test_endless_loop_exits_2_at_its_line(tmp_path, monkeypatch):
+    """The block budget error through the CLI (budget lowered from 10 000 000 to keep it fast)."""
+    from ncsim import interpret
+    real = interpret.interpret_file
+    monkeypatch.setattr(interpret, "interpret_file", lambda *a, **k: real(*a, **k, block_budget=50))
+    p = tmp_path / "loop.mpf"
+    p.write_text("G1 F100\nTOP: G91 X1\nGOTOB TOP\n")
+    r = invoke(p)
+    assert r.exit_code == 2
+    # blocks: line 1, then lines 2, 3, 2, 3, ...: block 51 is line 3
+    assert r.stderr.strip() == f"{p}:3:1: block budget of 50 blocks exceeded (endless loop?)"
