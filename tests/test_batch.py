@@ -55,7 +55,7 @@ def test_no_match_is_a_usage_error():
 
 
 def test_dask_local_cluster_gives_the_same_results(mikron):
-    distributed = pytest.importorskip("distributed")
+    import distributed
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster:
         dask_results = run_batch(PROGRAMS, mikron, scheduler=cluster.scheduler_address)
