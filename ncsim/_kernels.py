@@ -29,11 +29,10 @@ def ramp_reach_scalar(v0, distance, jerk, accel):
         return math.inf
     p = 2.0 * v0
     q = distance * math.sqrt(jerk)
-    if p > 1e-9 * q ** (2.0 / 3.0):
-        arg = (1.5 * q / p) * math.sqrt(3.0 / p)
-        y = 2.0 * math.sqrt(p / 3.0) * math.sinh(math.asinh(arg) / 3.0)
-    else:
-        y = q ** (1.0 / 3.0)
+    # Cardano for y^3 + p y - q = 0 (p >= 0: one real root), written c - (p/3)/c to avoid a
+    # second cube root; one Newton step polishes the rounding of the difference.
+    c = np.cbrt(0.5 * q + math.sqrt(0.25 * q * q + p * p * p / 27.0))
+    y = c - (p / 3.0) / c
     y = y - (y * y * y + p * y - q) / (3.0 * y * y + p + 1e-300)
     x = y * y
     if x * jerk <= accel * accel:
@@ -100,13 +99,20 @@ def peak_feed_scalar(va, vb, length, jerk, accel, cap):
     if ramp_distance_scalar(va, lo, jerk, accel) + ramp_distance_scalar(lo, vb, jerk, accel) >= length:
         return lo
     # Newton in u = sqrt(V - lo): f is smooth in u (in V it has a square-root end), so the
-    # iteration converges in a few steps; kept inside the bracket [u_lo, u_hi].
+    # iteration converges in a few steps; kept inside the bracket [u_lo, u_hi]. Start from
+    # the exact answer for equal end feeds: one ramp from lo over half the free length.
     u_lo, u_hi = 0.0, math.sqrt(hi - lo)
-    u = u_hi
+    free = length - ramp_distance_scalar(min(va, vb), lo, jerk, accel)
+    guess = ramp_reach_scalar(lo, 0.5 * free, jerk, accel) if free > 0.0 else lo
+    u = min(math.sqrt(max(guess - lo, 0.0)), u_hi)
+    if u <= 0.0:
+        u = u_hi
     for _ in range(100):
         v = lo + u * u
         f = (ramp_distance_scalar(va, v, jerk, accel) + ramp_distance_scalar(v, vb, jerk, accel)
              - length)
+        if abs(f) <= 1e-13 * length:
+            break
         if f < 0.0:
             u_lo = u
         else:
@@ -349,3 +355,12 @@ def creep_caps(p, keep, s_junction, start, end, v_start, room, jerk, accel, cap,
             pos = q
             v = target
     return p
+
+
+@njit(cache=True)
+def reach_array(v0, distance, jerk, accel):
+    """``ramp_reach_scalar`` over arrays (v0 may be a 0-length broadcast: pass full arrays)."""
+    out = np.empty(distance.shape[0])
+    for i in range(distance.shape[0]):
+        out[i] = ramp_reach_scalar(v0[i], distance[i], jerk[i], accel[i])
+    return out

@@ -212,21 +212,33 @@ def curvature_radius_mm(path: Path) -> np.ndarray:
     return out
 
 
+def line_directions(path: Path) -> np.ndarray:
+    """Unit direction of every row taken as a chord (the tangent of a line); 0 if no motion."""
+    d = path.end_mm - path.start_mm
+    length = np.sqrt(np.einsum("ij,ij->i", d, d))
+    return np.divide(d, length[:, None], out=np.zeros_like(d), where=length[:, None] > 0)
+
+
+def _whole_path(path: Path, at_end: bool, fn, lines_value) -> np.ndarray:
+    out = lines_value
+    arcs = np.nonzero(path.kind == ARC)[0]
+    if arcs.size:
+        s = path.length_mm[arcs] if at_end else np.zeros(arcs.size)
+        out[arcs] = fn(path, arcs, s)
+    return out
+
+
 def start_tangents(path: Path) -> np.ndarray:
-    idx = np.arange(path.n)
-    return tangent_at(path, idx, np.zeros(path.n))
+    return _whole_path(path, False, tangent_at, line_directions(path))
 
 
 def end_tangents(path: Path) -> np.ndarray:
-    idx = np.arange(path.n)
-    return tangent_at(path, idx, path.length_mm.copy())
+    return _whole_path(path, True, tangent_at, line_directions(path))
 
 
 def start_curvatures(path: Path) -> np.ndarray:
-    idx = np.arange(path.n)
-    return curvature_at(path, idx, np.zeros(path.n))
+    return _whole_path(path, False, curvature_at, np.zeros((path.n, 3)))
 
 
 def end_curvatures(path: Path) -> np.ndarray:
-    idx = np.arange(path.n)
-    return curvature_at(path, idx, path.length_mm.copy())
+    return _whole_path(path, True, curvature_at, np.zeros((path.n, 3)))

@@ -49,7 +49,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import minimum_filter1d
 
-from ._kernels import creep_caps, junction_states, knot_feeds_array, peak_feeds, section_pieces
+from ._kernels import (creep_caps, junction_states, knot_feeds_array, peak_feeds, reach_array,
+                       section_pieces)
 from .machine import MachineSpec
 from .motion import FULL_MODEL, Limit, ModelOptions, Motion, Phase
 from .path import Path
@@ -169,11 +170,13 @@ def _apply_lookahead(cap, cap_limit, jcap, jlimit, s_junction, jerk, accel, dept
     j_win = minimum_filter1d(jerk, size=size, origin=origin, mode="nearest")
     a_win = minimum_filter1d(accel, size=size, origin=origin, mode="nearest")
     kk, e = k[cut], end[cut]
-    block_cap = ramp_reach_mm_s(0.0, s_junction[e] - s_junction[kk], j_win[cut], a_win[cut])
+    zero = np.zeros(len(kk))
+    jw, aw = np.ascontiguousarray(j_win[cut]), np.ascontiguousarray(a_win[cut])
+    block_cap = reach_array(zero, s_junction[e] - s_junction[kk], jw, aw)
     bind = block_cap < cap[kk]
     cap[kk[bind]] = block_cap[bind]
     cap_limit[kk[bind]] = Limit.LOOKAHEAD
-    junction_cap = ramp_reach_mm_s(0.0, s_junction[e] - s_junction[kk + 1], j_win[cut], a_win[cut])
+    junction_cap = reach_array(zero, s_junction[e] - s_junction[kk + 1], jw, aw)
     bind = junction_cap < jcap[kk + 1]
     jcap[kk[bind] + 1] = junction_cap[bind]
     jlimit[kk[bind] + 1] = Limit.LOOKAHEAD
