@@ -166,7 +166,7 @@ def _apply_lookahead(cap, cap_limit, jcap, jlimit, s_junction, jerk, accel, dept
         return
     size = depth + 1
     # window minimum of the ramp limits over blocks k..k+depth
-    origin = -(size // 2) if size % 2 else -(size // 2) + 1
+    origin = -(size // 2)  # window [k, k + depth] (checked against slicing in tests)
     j_win = minimum_filter1d(jerk, size=size, origin=origin, mode="nearest")
     a_win = minimum_filter1d(accel, size=size, origin=origin, mode="nearest")
     kk, e = k[cut], end[cut]
