@@ -269,3 +269,24 @@ def test_bad_codes_and_unwritable_path(tmp_path):
         write_trace_csv(trace, io.BytesIO())
     with pytest.raises(UsageError, match="cannot write trace file"):
         write_trace_csv(random_trace(3), tmp_path / "no" / "such" / "dir.csv")
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(1, 300))
+def test_compiled_writer_is_byte_identical_to_the_numpy_formatter(seed, m):
+    """The compiled row writer and the vectorised numpy formatter give the same bytes."""
+    from ncsim import csvio
+
+    rng = np.random.default_rng(seed)
+    cols = [rng.normal(0, 10.0 ** rng.integers(-3, 8), m), rng.integers(-10**9, 10**9, m),
+            rng.integers(0, len(csvio.LIMIT_LABELS), m), np.round(rng.normal(0, 1, m), 1),
+            rng.integers(0, len(csvio.PHASE_LABELS), m)]
+    kinds = [csvio.FLOAT, csvio.INT, csvio.LABEL, csvio.FLOAT, csvio.LABEL]
+    decimals = [int(rng.integers(0, 9)), 0, 0, int(rng.integers(0, 4)), 0]
+    labels = [(), (), csvio.LIMIT_LABELS, (), csvio.PHASE_LABELS]
+    compiled = csvio._format_rows_compiled(cols, kinds, decimals, labels, list("abcde"))
+    assert compiled is not None
+    import unittest.mock as mock
+    with mock.patch.object(csvio, "_format_rows_compiled", lambda *a: None):
+        vectorised = csvio.format_rows(cols, kinds, decimals, labels, list("abcde"))
+    assert compiled == vectorised
