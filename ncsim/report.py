@@ -114,16 +114,6 @@ def summary(sim, *, top: int = 10, include_blocks: bool = True) -> dict:
     files = path.files
     order = np.argsort(-rows["time_lost_s"], kind="stable")[:top] if path.n else []
 
-    def block_dict(i) -> dict:
-        return OrderedDict(
-            block=int(i), file=files[int(rows["file_index"][i])], line=int(rows["line"][i]),
-            t_start_s=float(rows["t_start_s"][i]), duration_s=float(rows["duration_s"][i]),
-            feed_programmed_mm_min=_feed(rows["feed_programmed_mm_s"][i]),
-            feed_setpoint_mm_min=_feed(rows["cap_mm_s"][i]),
-            feed_max_mm_min=_feed(rows["feed_max_mm_s"][i]),
-            limit=str(rows["limit"][i]), time_lost_s=float(rows["time_lost_s"][i]),
-        )
-
     out = OrderedDict(
         schema=SCHEMA_VERSION, ncsim_version=__version__,
         program=sim.program, machine=sim.machine.name,
@@ -139,17 +129,42 @@ def summary(sim, *, top: int = 10, include_blocks: bool = True) -> dict:
         limited_fraction=limited / feed_time if feed_time > 0 else 0.0,
         time_by_limit_s=tbl["feed"], rapid_time_by_limit_s=tbl["rapid"],
         feeds=feed_table(motion),
-        slowest_blocks=[block_dict(i) for i in order],
+        slowest_blocks=block_dicts(rows, files, order),
         warnings=[w.render() for w in sim.warnings],
     )
     if include_blocks:
-        out["blocks_detail"] = [block_dict(i) for i in range(path.n)]
+        out["blocks_detail"] = block_dicts(rows, files, np.arange(path.n))
     return out
 
 
-def _feed(v_mm_s) -> float | None:
-    v = float(v_mm_s)
-    return None if not np.isfinite(v) else float(mm_s_to_mm_min(v))
+def block_dicts(rows: dict, files, index) -> list[dict]:
+    """One dict per block of ``index`` (keys in README "JSON summary"), built column-wise:
+    a million blocks take about a second (per-element numpy indexing took ~40 us a block)."""
+    idx = np.asarray(index, dtype=np.int64)
+    if len(idx) == 0:
+        return []
+    file_names = np.asarray(files, dtype=object)[rows["file_index"][idx]].tolist()
+    columns = {
+        "block": idx.tolist(), "file": file_names, "line": rows["line"][idx].tolist(),
+        "t_start_s": rows["t_start_s"][idx].astype(np.float64).tolist(),
+        "duration_s": rows["duration_s"][idx].astype(np.float64).tolist(),
+        "feed_programmed_mm_min": _feeds(rows["feed_programmed_mm_s"][idx]),
+        "feed_setpoint_mm_min": _feeds(rows["cap_mm_s"][idx]),
+        "feed_max_mm_min": _feeds(rows["feed_max_mm_s"][idx]),
+        "limit": [str(v) for v in rows["limit"][idx].tolist()],
+        "time_lost_s": rows["time_lost_s"][idx].astype(np.float64).tolist(),
+    }
+    keys = tuple(columns)
+    return [dict(zip(keys, values)) for values in zip(*columns.values())]
+
+
+def _feeds(v_mm_s: np.ndarray) -> list:
+    """mm/min as Python floats, None where not finite (a rapid's programmed feed)."""
+    v = mm_s_to_mm_min(np.asarray(v_mm_s, dtype=np.float64))
+    out = v.tolist()
+    for k in np.flatnonzero(~np.isfinite(v)).tolist():
+        out[k] = None
+    return out
 
 
 def format_text(s: dict) -> str:

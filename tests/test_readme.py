@@ -1,0 +1,225 @@
+"""The README is accurate: its commands work, its examples are real, its references complete.
+
+* the quick start's test command is the one `.ci/run` runs;
+* every `ncsim` command shown (shell blocks and the GitHub Actions job) parses, and the examples
+  whose output is shown give that output;
+* the example figure is committed and made by a command shown in the README;
+* every key of the JSON summary, every CSV column, every machine-file key, every limit name and
+  every exit status is documented.
+"""
+from __future__ import annotations
+
+import json
+import re
+import shlex
+import shutil
+import tomllib
+
+import click
+import matplotlib.image as matplotlib_image
+import pytest
+from click.testing import CliRunner
+
+from ncsim.cli import cli
+
+FIGURE_COMMAND = "ncsim plot programs/bore_d25_f5984.mpf --machine mikron -o docs/bore_d25_f5984.png"
+
+
+@pytest.fixture(scope="module")
+def readme(repo_root) -> str:
+    return (repo_root / "README.md").read_text(encoding="utf-8")
+
+
+def section(text: str, heading: str) -> str:
+    """The text under ``## heading`` up to the next ``## ``."""
+    match = re.search(rf"^## {re.escape(heading)}\n(.*?)(?=^## |\Z)", text, re.S | re.M)
+    assert match, f"README has no '## {heading}' section"
+    return match.group(1)
+
+
+def fenced(text: str, lang: str) -> list[str]:
+    return re.findall(rf"^```{lang}\n(.*?)^```", text, re.S | re.M)
+
+
+def shell_commands(text: str) -> list[str]:
+    """Commands of the ```sh blocks (continuation lines joined), split at &&."""
+    out = []
+    for block in fenced(text, "sh"):
+        for line in block.replace("\\\n", " ").splitlines():
+            line = line.strip()
+            if line and not line.startswith("#"):
+                out += [c.strip() for c in line.split("&&")]
+    return out
+
+
+def workflow_commands(text: str) -> list[str]:
+    """Commands run by the ```yaml job (`run: cmd` and the lines of `run: |` blocks)."""
+    out = []
+    for block in fenced(text, "yaml"):
+        lines = block.splitlines()
+        for i, line in enumerate(lines):
+            m = re.match(r"\s*(?:- )?run: (.*)$", line)
+            if not m:
+                continue
+            if m.group(1).strip() != "|":
+                out.append(m.group(1).strip())
+                continue
+            indent = None
+            for follow in lines[i + 1:]:
+                width = len(follow) - len(follow.lstrip())
+                if indent is None:
+                    indent = width
+                if not follow.strip() or width < indent:
+                    break
+                out.append(follow.strip())
+    return out
+
+
+def ncsim_args(command: str) -> list[str]:
+    words = shlex.split(command.split(">")[0], comments=True)
+    assert words[0] == "ncsim", command
+    return words[1:]
+
+
+# ---------------------------------------------------------------------------------------------
+# Quick start and CI
+# ---------------------------------------------------------------------------------------------
+
+def test_quick_start_is_two_commands_and_ci_runs_the_same_tests(readme, repo_root):
+    quick = section(readme, "Quick start")
+    blocks = fenced(quick, "sh")
+    assert [b.strip() for b in blocks] == [
+        "pip install . && ncsim run programs/bore_d25_f5984.mpf --machine mikron",
+        "pip install '.[test]' && python -m pytest -q",
+    ]
+    ci = [line.strip() for line in (repo_root / ".ci" / "run").read_text().splitlines()
+          if line.strip() and not line.lstrip().startswith("#")]
+    assert ci[-1] == blocks[1].strip(), "README's test command and .ci/run must agree"
+
+
+def test_quick_start_run_works_from_the_repository(readme, repo_root, monkeypatch):
+    monkeypatch.chdir(repo_root)
+    command = fenced(section(readme, "Quick start"), "sh")[0].split("&&")[1].strip()
+    r = CliRunner().invoke(cli, ncsim_args(command))
+    assert r.exit_code == 0, r.output
+    assert r.stdout.startswith("program     programs/bore_d25_f5984.mpf\nmachine     mikron\ncycle time")
+
+
+def test_every_ncsim_command_shown_parses(readme, repo_root, monkeypatch):
+    """Arguments and options of each command are accepted (click parses them without running)."""
+    monkeypatch.chdir(repo_root)
+    commands = [c for c in shell_commands(readme) + workflow_commands(readme) if c.startswith("ncsim ")]
+    assert len(commands) >= 8
+    for command in commands:
+        name, *rest = ncsim_args(command)
+        ctx = click.Context(cli, info_name="ncsim")
+        sub = cli.get_command(ctx, name)
+        assert sub is not None, f"no command {name!r}: {command}"
+        sub.make_context(name, rest, parent=ctx)   # raises on an unknown option or a bad value
+
+
+def _output_after(text: str, command: str) -> str:
+    """The ```text block that follows the ```sh block holding ``command``."""
+    i = text.index(command)
+    start = text.index("```text\n", i) + len("```text\n")
+    return text[start:text.index("```", start)]
+
+
+def test_worked_example_output_is_real(readme, repo_root, monkeypatch):
+    monkeypatch.chdir(repo_root)
+    example = section(readme, "Worked example: the 25 mm bore")
+    command = "ncsim run programs/bore_d25_f5984.mpf --machine mikron --top 4"
+    assert command in example
+    r = CliRunner().invoke(cli, ncsim_args(command))
+    assert r.exit_code == 0
+    assert r.stdout == _output_after(example, command), \
+        "refresh the README's worked example with the command's output"
+
+
+def test_check_example_and_ci_job_pass(readme, repo_root, tmp_path, monkeypatch):
+    text = section(readme, "ncsim check in CI")
+    command = "ncsim check programs/bore_d25_f5984.mpf --machine mikron --max-time 2.5 --min-feed-ratio 0.2"
+    assert command in text and command in workflow_commands(text)
+    runner = CliRunner()
+    monkeypatch.chdir(tmp_path)                  # a checkout: the programs, nothing else
+    shutil.copytree(repo_root / "programs", "programs")
+    r = runner.invoke(cli, ncsim_args(command))
+    assert r.exit_code == 0, r.output
+    assert r.stdout == _output_after(text, command)
+    # the job's regression step, with `git show origin/main:...` replaced by a copy
+    steps = workflow_commands(text)
+    git = next(s for s in steps if s.startswith("git show"))
+    source, target = re.match(r"git show origin/main:(\S+) > (\S+)", git).groups()
+    shutil.copy(source, target)
+    for step in steps[steps.index(git) + 1:]:
+        r = runner.invoke(cli, ncsim_args(step))
+        assert r.exit_code == 0, (step, r.output)
+        if ">" in step:
+            (tmp_path / step.split(">")[1].strip()).write_text(r.stdout)
+
+
+# ---------------------------------------------------------------------------------------------
+# The example figure
+# ---------------------------------------------------------------------------------------------
+
+def test_example_figure_is_committed_and_made_by_a_readme_command(readme, repo_root, tmp_path, monkeypatch):
+    assert FIGURE_COMMAND in shell_commands(section(readme, "Worked example: the 25 mm bore"))
+    figure = FIGURE_COMMAND.split("-o ")[1]
+    assert f"]({figure})" in readme
+    committed = matplotlib_image.imread(repo_root / figure)
+    assert committed.shape[:2] == (1000, 1600)
+    # the command makes it (written to a temporary file here)
+    monkeypatch.chdir(repo_root)
+    out = tmp_path / "figure.png"
+    args = ncsim_args(FIGURE_COMMAND)
+    args[args.index("-o") + 1] = str(out)
+    r = CliRunner().invoke(cli, args)
+    assert r.exit_code == 0, r.output
+    assert matplotlib_image.imread(out).shape == committed.shape
+
+
+# ---------------------------------------------------------------------------------------------
+# References
+# ---------------------------------------------------------------------------------------------
+
+def _documented(text: str) -> set[str]:
+    return set(re.findall(r"`([A-Za-z_][A-Za-z0-9_]*)`", text))
+
+
+def test_every_json_summary_key_is_documented(readme, repo_root):
+    prog = repo_root / "programs" / "bore_d25_f5984.mpf"
+    s = json.loads(CliRunner().invoke(cli, ["run", str(prog), "-m", "mikron", "--json",
+                                            "--crosscheck"]).stdout)
+    keys = set(s) | set(s["model"]) | set(s["feeds"][0]) | set(s["blocks_detail"][0]) \
+        | set(s["slowest_blocks"][0]) | (set(s["crosscheck"]) - {"reasons"})
+    documented = _documented(section(readme, "JSON summary"))
+    assert keys - documented == set()
+
+
+def test_every_csv_column_and_limit_is_documented(readme):
+    from ncsim.csvio import ALL_COLUMNS
+    from ncsim.motion import LIMIT_LABELS
+    assert set(ALL_COLUMNS) - _documented(section(readme, "CSV trace")) == set()
+    assert set(LIMIT_LABELS) - _documented(section(readme, "JSON summary")) == set()
+
+
+def test_every_machine_file_key_is_documented(readme, repo_root):
+    from ncsim import machine
+    text = section(readme, "Machine file")
+    documented = _documented(text)
+    data = tomllib.loads((repo_root / "machines" / "mikron.toml").read_text())
+    keys = {k for table in data.values() for k in table if not isinstance(table[k], dict)}
+    keys |= {k for axis in data["axes"].values() for k in axis}
+    keys |= {k for k, *_ in machine._AXIS_KEYS + machine._NCU_KEYS + machine._STRUCTURE_KEYS}
+    assert keys - documented == set()
+    for md in ("MD32000", "MD32300", "MD32431", "MD10050"):
+        assert md in text
+
+
+def test_exit_codes_and_reserved_sections(readme):
+    from ncsim.errors import ExitStatus
+    table = section(readme, "Exit codes")
+    for status in ExitStatus:
+        assert re.search(rf"^\| {int(status)} \|", table, re.M), status
+    for heading in ("Speed and scale", "Sim-to-real gap diagnosis", "Development"):
+        section(readme, heading)
