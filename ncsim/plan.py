@@ -47,7 +47,6 @@ junction would be a knot), and the feed never exceeds it; every ramp has |j| <= 
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import minimum_filter1d
 
 from ._kernels import (creep_caps, junction_states, knot_feeds_array, peak_feeds, reach_array,
                        section_pieces)
@@ -164,11 +163,9 @@ def _apply_lookahead(cap, cap_limit, jcap, jlimit, s_junction, jerk, accel, dept
     cut = end < n
     if not np.any(cut):
         return
-    size = depth + 1
     # window minimum of the ramp limits over blocks k..k+depth
-    origin = -(size // 2)  # window [k, k + depth] (checked against slicing in tests)
-    j_win = minimum_filter1d(jerk, size=size, origin=origin, mode="nearest")
-    a_win = minimum_filter1d(accel, size=size, origin=origin, mode="nearest")
+    j_win = window_min(jerk, depth + 1)
+    a_win = window_min(accel, depth + 1)
     kk, e = k[cut], end[cut]
     zero = np.zeros(len(kk))
     jw, aw = np.ascontiguousarray(j_win[cut]), np.ascontiguousarray(a_win[cut])
@@ -180,6 +177,23 @@ def _apply_lookahead(cap, cap_limit, jcap, jlimit, s_junction, jerk, accel, dept
     bind = junction_cap < jcap[kk + 1]
     jcap[kk[bind] + 1] = junction_cap[bind]
     jlimit[kk[bind] + 1] = Limit.LOOKAHEAD
+
+
+def window_min(x: np.ndarray, width: int) -> np.ndarray:
+    """min(x[k : k + width]) for every k (the window is cut at the end), in O(n) by the van
+    Herk / Gil-Werman method: prefix minima inside blocks of ``width``, suffix minima, and the
+    minimum of the two that cover each window."""
+    n = len(x)
+    if width <= 1 or n == 0:
+        return x.copy()
+    blocks = -(-n // width) + 1
+    padded = np.full(blocks * width, np.inf)
+    padded[:n] = x
+    rows = padded.reshape(blocks, width)
+    prefix = np.minimum.accumulate(rows, axis=1).ravel()
+    suffix = np.minimum.accumulate(rows[:, ::-1], axis=1)[:, ::-1].ravel()
+    k = np.arange(n)
+    return np.minimum(suffix[k], prefix[k + width - 1])
 
 
 def _find_knots(p, cap, cap_limit, jcap, jlimit):

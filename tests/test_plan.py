@@ -217,3 +217,13 @@ def test_stopping_distance_matches_ruckig(v, a_share, jerk, accel):
         return  # the feed would reverse before the deceleration is undone: not a path state
     ours = float(stopping_distance_mm(v, a, jerk, accel))
     assert ours == pytest.approx(stopping_distance(v, a, accel, jerk), rel=1e-6, abs=1e-7)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.floats(-1e6, 1e6), min_size=0, max_size=60), st.integers(1, 12))
+def test_window_min_equals_slicing(values, width):
+    from ncsim.plan import window_min
+
+    x = np.array(values, dtype=float)
+    expected = np.array([x[k:k + width].min() for k in range(len(x))])
+    np.testing.assert_array_equal(window_min(x, width), expected)
