@@ -110,6 +110,8 @@ def test_every_program_respects_the_limits(name):
     assert np.all(np.abs(trace.jerk_t_mm_s3[soft]) <= 1.01 * jerk_in_force[soft] + 1e-9)
     # never faster than the set point
     assert np.all(trace.feed_mm_s <= trace.setpoint_mm_s * 1.0001 + 1e-9)
+    # every block takes at least one interpolation cycle (eq. 6)
+    assert np.all(sim.motion.duration_s >= machine.ncu.ipo_cycle_s * (1 - 1e-9))
     report = crosscheck(sim.motion).summary()
     assert report["violations"] == 0
     assert report["faster_than_optimum"] == 0
