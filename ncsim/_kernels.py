@@ -168,6 +168,24 @@ def _ramp_segments(v0, v1, jerk, accel):
 
 
 @njit(cache=True)
+def _emit_ramp(v_from, v_to, J, A, s, t, m, phase, limit, t0, s0, v0, a0, jj, ph, lim):
+    """Append the (up to three) constant-jerk pieces of one ramp starting at path length s
+    and time t; returns the new time and piece count."""
+    v, a = v_from, 0.0
+    t1, t2, jsig = _ramp_segments(v_from, v_to, J, A)
+    for dur, jk in ((t1, jsig), (t2, 0.0), (t1, -jsig)):
+        if dur > 0.0:
+            t0[m], s0[m], v0[m], a0[m], jj[m] = t, s, v, a, jk
+            ph[m], lim[m] = phase, limit
+            s = s + dur * (v + dur * (a / 2.0 + dur * jk / 6.0))
+            v = v + dur * (a + dur * jk / 2.0)
+            a = a + dur * jk
+            t += dur
+            m += 1
+    return t, m
+
+
+@njit(cache=True)
 def section_pieces(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_dwell,
                    final_dwell, reason_up, reason_down, reason_steady,
                    phase_a, phase_b, phase_c, phase_stop, limit_dwell):
@@ -195,17 +213,8 @@ def section_pieces(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_d
         va, vp, vb = v_knot[i], v_peak[i], v_knot[i + 1]
         J, A = sec_jerk[i], sec_accel[i]
         # ramp A: v_a -> v_peak
-        s, v, a = s_start, va, 0.0
-        t1, t2, jsig = _ramp_segments(va, vp, J, A)
-        for dur, jk in ((t1, jsig), (t2, 0.0), (t1, -jsig)):
-            if dur > 0.0:
-                t0[m], s0[m], v0[m], a0[m], jj[m] = t, s, v, a, jk
-                ph[m], lim[m] = phase_a, reason_up[i]
-                s = s + dur * (v + dur * (a / 2.0 + dur * jk / 6.0))
-                v = v + dur * (a + dur * jk / 2.0)
-                a = a + dur * jk
-                t += dur
-                m += 1
+        t, m = _emit_ramp(va, vp, J, A, s_start, t, m, phase_a, reason_up[i],
+                          t0, s0, v0, a0, jj, ph, lim)
         up = ramp_distance_scalar(va, vp, J, A)
         down = ramp_distance_scalar(vp, vb, J, A)
         steady = sec_len[i] - up - down
@@ -215,17 +224,8 @@ def section_pieces(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_d
             t += steady / vp
             m += 1
         # ramp C: v_peak -> v_b
-        s, v, a = s_start + sec_len[i] - down, vp, 0.0
-        t1, t2, jsig = _ramp_segments(vp, vb, J, A)
-        for dur, jk in ((t1, jsig), (t2, 0.0), (t1, -jsig)):
-            if dur > 0.0:
-                t0[m], s0[m], v0[m], a0[m], jj[m] = t, s, v, a, jk
-                ph[m], lim[m] = phase_c, reason_down[i]
-                s = s + dur * (v + dur * (a / 2.0 + dur * jk / 6.0))
-                v = v + dur * (a + dur * jk / 2.0)
-                a = a + dur * jk
-                t += dur
-                m += 1
+        t, m = _emit_ramp(vp, vb, J, A, s_start + sec_len[i] - down, t, m, phase_c,
+                          reason_down[i], t0, s0, v0, a0, jj, ph, lim)
         sec_end_t[i] = t
     if final_dwell > 0.0:
         t0[m], s0[m], v0[m], a0[m], jj[m] = t, sec_s0[n_sec - 1] + sec_len[n_sec - 1], 0.0, 0.0, 0.0

@@ -61,19 +61,12 @@ def center_from_radius(start_mm, end_mm, normal, radius_mm: float):
     """Centre of the arc of radius |CR| from start to end turning counter-clockwise about
     ``normal``; CR < 0 selects the arc longer than a half circle (840D CR= convention).
     Returns None if the chord is longer than the diameter."""
-    start = np.asarray(start_mm, dtype=np.float64)
-    end = np.asarray(end_mm, dtype=np.float64)
-    w = np.asarray(normal, dtype=np.float64)
-    chord = end - start
-    chord_p = chord - np.dot(chord, w) * w
-    c_len = float(np.linalg.norm(chord_p))
+    mid, c_len, left = _chord(start_mm, end_mm, normal)
     r = abs(float(radius_mm))
     if c_len == 0.0 or c_len > 2.0 * r * (1 + 1e-9):
         return None
     half = 0.5 * c_len
     h = np.sqrt(max(r * r - half * half, 0.0))
-    mid = start + 0.5 * chord_p
-    left = np.cross(w, chord_p / c_len)  # points to the centre of the short CCW arc
     sign = 1.0 if radius_mm > 0 else -1.0
     return mid + sign * h * left
 
@@ -81,19 +74,24 @@ def center_from_radius(start_mm, end_mm, normal, radius_mm: float):
 def center_from_opening_angle(start_mm, end_mm, normal, angle_rad: float):
     """Centre of the arc from start to end with opening angle ``angle_rad`` (840D AR=),
     turning counter-clockwise about ``normal``."""
-    start = np.asarray(start_mm, dtype=np.float64)
-    end = np.asarray(end_mm, dtype=np.float64)
-    w = np.asarray(normal, dtype=np.float64)
-    chord = end - start
-    chord_p = chord - np.dot(chord, w) * w
-    c_len = float(np.linalg.norm(chord_p))
+    mid, c_len, left = _chord(start_mm, end_mm, normal)
     if c_len == 0.0 or not (0.0 < angle_rad < TWO_PI):
         return None
     r = 0.5 * c_len / np.sin(0.5 * angle_rad)
     # signed distance from chord midpoint to centre along `left`
-    d = r * np.cos(0.5 * angle_rad)
-    left = np.cross(w, chord_p / c_len)
-    return start + 0.5 * chord_p + d * left
+    return mid + r * np.cos(0.5 * angle_rad) * left
+
+
+def _chord(start_mm, end_mm, normal):
+    """Midpoint, length and in-plane left unit normal of the chord start -> end projected on
+    the plane of ``normal`` (the centre of the short counter-clockwise arc lies to the left)."""
+    start = np.asarray(start_mm, dtype=np.float64)
+    w = np.asarray(normal, dtype=np.float64)
+    chord = np.asarray(end_mm, dtype=np.float64) - start
+    chord_p = chord - np.dot(chord, w) * w
+    c_len = float(np.linalg.norm(chord_p))
+    left = np.cross(w, chord_p / c_len) if c_len > 0 else np.zeros(3)
+    return start + 0.5 * chord_p, c_len, left
 
 
 def circle_through_points(p1, p2, p3, normal_hint=None):
