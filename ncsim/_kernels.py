@@ -23,10 +23,17 @@ except ImportError:  # pragma: no cover
 @njit(cache=True)
 def ramp_reach_scalar(v0, distance, jerk, accel):
     """Scalar twin of :func:`ncsim.ramps.ramp_reach_mm_s` (same closed forms)."""
-    if distance <= 0.0:
-        return v0
     if not math.isfinite(distance) or not math.isfinite(v0):
-        return math.inf
+        return math.inf if distance > 0.0 else v0
+    return v0 + reach_gain_scalar(v0, distance, jerk, accel)
+
+
+@njit(cache=True)
+def reach_gain_scalar(v0, distance, jerk, accel):
+    """The feed gain ``v1 - v0`` of :func:`ramp_reach_scalar`, without forming ``v1``
+    (no rounding when the gain is tiny against v0)."""
+    if distance <= 0.0:
+        return 0.0
     p = 2.0 * v0
     q = distance * math.sqrt(jerk)
     # Cardano for y^3 + p y - q = 0 (p >= 0: one real root), written c - (p/3)/c to avoid a
@@ -36,12 +43,12 @@ def ramp_reach_scalar(v0, distance, jerk, accel):
     y = y - (y * y * y + p * y - q) / (3.0 * y * y + p + 1e-300)
     x = y * y
     if x * jerk <= accel * accel:
-        return v0 + x
+        return x
     b = 2.0 * v0 + accel * accel / jerk
     c = 2.0 * v0 * accel * accel / jerk - 2.0 * distance * accel
     disc = math.sqrt(max(b * b - 4.0 * c, 0.0))
     x = -2.0 * c / (b + disc) if c < 0.0 else 0.0
-    return v0 + max(x, 0.0)
+    return max(x, 0.0)
 
 
 @njit(cache=True)
@@ -85,67 +92,71 @@ def ramp_distance_scalar(v0, v1, jerk, accel):
 
 
 @njit(cache=True)
+def _rise_distance(v_low, dv, jerk, accel):
+    """Distance of a ramp between v_low and v_low + dv, from dv itself (no cancellation)."""
+    return 0.5 * (2.0 * v_low + dv) * ramp_time_scalar(dv, jerk, accel)
+
+
+@njit(cache=True)
+def _rise_distance_slope(v_low, dv, jerk, accel):
+    """d/d(dv) of :func:`_rise_distance`."""
+    if dv <= 0.0:
+        return math.inf
+    if dv * jerk <= accel * accel:
+        t, dt = 2.0 * math.sqrt(dv / jerk), 1.0 / math.sqrt(jerk * dv)
+    else:
+        t, dt = dv / accel + accel / jerk, 1.0 / accel
+    return 0.5 * t + 0.5 * (2.0 * v_low + dv) * dt
+
+
+@njit(cache=True)
+def _peak_excess(va, vb, ga, gb, u2, length, jerk, accel):
+    return (_rise_distance(va, ga + u2, jerk, accel) + _rise_distance(vb, gb + u2, jerk, accel)
+            - length)
+
+
+@njit(cache=True)
 def peak_feed_scalar(va, vb, length, jerk, accel, cap):
-    """Scalar twin of :func:`ncsim.ramps.peak_feed_mm_s` (generalised eq. 16)."""
+    """Scalar twin of :func:`ncsim.ramps.peak_feed_mm_s` (generalised eq. 16).
+
+    Solved for u = sqrt(V - lo), lo = max(va, vb): the equation is smooth in u (in V it has a
+    square-root end) and each ramp's distance is computed from its own feed change
+    (lo - v_end) + u^2, never from V - v_end, which would cancel when V is close to lo.
+    """
     lo = max(va, vb)
     if cap <= lo:
         return cap
-    if math.isfinite(cap) and (ramp_distance_scalar(va, cap, jerk, accel)
-                               + ramp_distance_scalar(cap, vb, jerk, accel) <= length):
+    ga, gb = lo - va, lo - vb          # the ramps' feed change already due at V = lo
+    if math.isfinite(cap) and _peak_excess(va, vb, ga, gb, cap - lo, length, jerk, accel) <= 0.0:
         return cap
-    if length <= 0.0:
+    if length <= 0.0 or _peak_excess(va, vb, ga, gb, 0.0, length, jerk, accel) >= 0.0:
         return lo
-    hi = cap if math.isfinite(cap) else max(ramp_reach_scalar(lo, length, jerk, accel), lo)
-    if ramp_distance_scalar(va, lo, jerk, accel) + ramp_distance_scalar(lo, vb, jerk, accel) >= length:
-        return lo
-    # Newton in u = sqrt(V - lo): f is smooth in u (in V it has a square-root end), so the
-    # iteration converges in a few steps; kept inside the bracket [u_lo, u_hi]. Start from
-    # the exact answer for equal end feeds: one ramp from lo over half the free length.
-    u_lo, u_hi = 0.0, math.sqrt(hi - lo)
-    free = length - ramp_distance_scalar(min(va, vb), lo, jerk, accel)
-    guess = ramp_reach_scalar(lo, 0.5 * free, jerk, accel) if free > 0.0 else lo
-    u = min(math.sqrt(max(guess - lo, 0.0)), u_hi)
-    if u <= 0.0:
-        u = u_hi
+    hi = cap - lo if math.isfinite(cap) else reach_gain_scalar(lo, length, jerk, accel)
+    u_lo, u_hi = 0.0, math.sqrt(max(hi, 0.0))
+    # start from the exact answer for equal end feeds: one ramp over half the free length
+    free = length - _rise_distance(min(va, vb), abs(va - vb), jerk, accel)
+    u = math.sqrt(reach_gain_scalar(lo, 0.5 * free, jerk, accel)) if free > 0.0 else u_hi
+    u = min(u, u_hi) if u > 0.0 else u_hi
     for _ in range(100):
-        v = lo + u * u
-        f = (ramp_distance_scalar(va, v, jerk, accel) + ramp_distance_scalar(v, vb, jerk, accel)
-             - length)
-        if abs(f) <= 1e-13 * length:
+        f = _peak_excess(va, vb, ga, gb, u * u, length, jerk, accel)
+        if abs(f) <= 1e-14 * length:
             break
         if f < 0.0:
             u_lo = u
         else:
             u_hi = u
-        slope = 2.0 * u * (_ramp_distance_slope(va, v, jerk, accel)
-                           + _ramp_distance_slope(vb, v, jerk, accel))
+        slope = 2.0 * u * (_rise_distance_slope(va, ga + u * u, jerk, accel)
+                           + _rise_distance_slope(vb, gb + u * u, jerk, accel))
         nu = u - f / slope if slope > 0.0 and math.isfinite(slope) else 0.5 * (u_lo + u_hi)
         if not (u_lo < nu < u_hi):
             nu = 0.5 * (u_lo + u_hi)
-        if abs(nu - u) <= 1e-13 * max(nu, 1e-6) or u_hi - u_lo <= 1e-13 * max(u_hi, 1e-6):
+        if abs(nu - u) <= 1e-14 * max(nu, 1e-300) or u_hi - u_lo <= 1e-14 * u_hi:
             u = nu
             break
         u = nu
-    v = lo + u * u
-    if (ramp_distance_scalar(va, v, jerk, accel) + ramp_distance_scalar(v, vb, jerk, accel)
-            > length * (1.0 + 1e-12) + 1e-12):
-        v = lo + u_lo * u_lo
-    return v
-
-
-@njit(cache=True)
-def _ramp_distance_slope(v_end, v, jerk, accel):
-    """d/dv of the ramp distance between a fixed feed v_end and a peak v >= v_end."""
-    dv = v - v_end
-    if dv <= 0.0:
-        return math.inf
-    if dv * jerk <= accel * accel:
-        t = 2.0 * math.sqrt(dv / jerk)
-        dt = 1.0 / math.sqrt(jerk * dv)
-    else:
-        t = dv / accel + accel / jerk
-        dt = 1.0 / accel
-    return 0.5 * t + 0.5 * (v_end + v) * dt
+    if _peak_excess(va, vb, ga, gb, u * u, length, jerk, accel) > 1e-12 * max(length, 1e-300):
+        u = u_lo                       # never return a feed whose ramps do not fit
+    return lo + u * u
 
 
 @njit(cache=True)
@@ -421,3 +432,24 @@ def format_csv_rows(ints, neg, kind, decimals, labels, label_len, out):
             out[pos] = 44 if c < k - 1 else 10  # ',' or newline
             pos += 1
     return pos
+
+
+@njit(cache=True)
+def removable_knots(peaks, caps, knot_caps, keep):
+    """Which inner knots to remove (ncsim.plan._refine_knots): walking along the path, a knot
+    goes when the group of sections it joins keeps its highest peak below its lowest set
+    point (section set points and the removed knots' caps), so merging never slows a section.
+    ``knot_caps``/``keep`` are indexed by knot (0 and the last are never removed)."""
+    n_sec = peaks.shape[0]
+    remove = np.zeros(n_sec + 1, dtype=np.bool_)
+    group_cap = caps[0]
+    group_peak = peaks[0]
+    for i in range(1, n_sec):
+        new_cap = min(group_cap, caps[i], knot_caps[i])
+        new_peak = max(group_peak, peaks[i])
+        if not keep[i] and new_peak < new_cap * (1.0 - 1e-6):
+            remove[i] = True
+            group_cap, group_peak = new_cap, new_peak
+        else:
+            group_cap, group_peak = caps[i], peaks[i]
+    return remove

@@ -310,7 +310,8 @@ def align(measured: MeasuredTrace, sim_pos_mm, sim_t_s, sim_s_mm, *, sim_block=N
           onset_threshold_mm_s: float | None = None,
           speed_smoothing_s: float = 0.02, transition_half_width_s: float = 0.012,
           max_distance_mm: float = math.inf, noise_mm: float | None = None,
-          use_command: bool = False) -> Alignment:
+          use_command: bool = False, measured_speed_mm_s=None,
+          sim_speed_mm_s=None) -> Alignment:
     """Align ``measured`` to the simulated samples (see the module docstring).
 
     ``sim_pos_mm`` (n, 3), ``sim_t_s`` (n,), ``sim_s_mm`` (n,, non-decreasing) describe the
@@ -322,6 +323,9 @@ def align(measured: MeasuredTrace, sim_pos_mm, sim_t_s, sim_s_mm, *, sim_block=N
     within 3 noise of a simulated standstill is taken as standing there.
     ``use_command`` aligns the measured COMMANDED positions instead of the actual ones (the
     planner part of a command/actual split).
+    ``measured_speed_mm_s`` and ``sim_speed_mm_s`` may give the speeds this function would
+    derive (the measured speed, and the simulated speed through the same operator when the
+    measured one is derived from positions): fitting loops align many models to one trace.
     """
     pts = np.asarray(sim_pos_mm, dtype=np.float64)
     ts = np.asarray(sim_t_s, dtype=np.float64)
@@ -347,10 +351,13 @@ def align(measured: MeasuredTrace, sim_pos_mm, sim_t_s, sim_s_mm, *, sim_block=N
         # that the smoothing biases both alike
         k = max(1, int(round(0.5 * speed_smoothing_s / period)))
         width_s = 2 * k * period
-        v_meas = measured.speed_mm_s(width_s)
-        v_sim_cmp = derived_speed_mm_s(ts, pts, width_s)
+        v_meas = (measured.speed_mm_s(width_s) if measured_speed_mm_s is None
+                  else np.asarray(measured_speed_mm_s, dtype=np.float64))
+        v_sim_cmp = (derived_speed_mm_s(ts, pts, width_s) if sim_speed_mm_s is None
+                     else np.asarray(sim_speed_mm_s, dtype=np.float64))
     else:
-        v_meas = measured.speed_mm_s()
+        v_meas = (measured.speed_mm_s() if measured_speed_mm_s is None
+                  else np.asarray(measured_speed_mm_s, dtype=np.float64))
         v_sim_cmp = sim_feed
     v_max_sim = float(np.max(sim_feed)) if n else 0.0
     threshold = onset_threshold_mm_s or max(0.02 * v_max_sim, 1e-6)
@@ -384,8 +391,19 @@ def align(measured: MeasuredTrace, sim_pos_mm, sim_t_s, sim_s_mm, *, sim_block=N
         on_meas_rest = motion_onset_s(tm, v_meas, threshold)
         if on_meas_rest is not None and sim_feed[0] <= threshold:
             rest = (tm < on_meas_rest) & (v_meas <= threshold)
+            # before the onset threshold is crossed a jerk-limited start has already moved
+            # (J t^3 / 6: 0.2 mm at 5 m/s^3 and 10 mm/s): keep the samples whose speed is
+            # within the derived-speed noise of rest, when there are enough of them
+            noise0 = (estimate_noise_mm(q_raw, v_meas, threshold) if noise_mm is None
+                      else float(noise_mm))
+            width = 2 * max(1, int(round(0.5 * speed_smoothing_s / period))) * period
+            still = rest & (v_meas <= max(4.0 * math.sqrt(2.0) * noise0 / width, 1e-3 * threshold))
+            if np.count_nonzero(still) >= 3:
+                rest = still
         if np.count_nonzero(rest) >= 1 and sim_feed[0] <= threshold:
-            off = np.median(q_raw[rest], axis=0) - pts[0]
+            # against the simulated start motion at the aligned instants (= its start point
+            # for samples truly at rest)
+            off = np.median(q_raw[rest] - sim_at(tm[rest] - tau), axis=0)
             offset_used = "start"
         else:
             inside = (tm - tau >= ts[0]) & (tm - tau <= ts[-1])

@@ -211,7 +211,8 @@ class MeasuredTrace:
 def derived_speed_mm_s(t_s: np.ndarray, pos_mm: np.ndarray, smooth_s: float = 0.0,
                        segment: np.ndarray | None = None) -> np.ndarray:
     """Speed from positions: |p[i+k] - p[i-k]| / (t[i+k] - t[i-k]) with ``k`` samples such that
-    ``2 k`` periods span about ``smooth_s`` (k >= 1), one-sided at the ends and at breaks.
+    ``2 k`` periods span about ``smooth_s`` (k >= 1), one-sided at the ends and at breaks; a
+    sample alone between two breaks is differenced with its direct neighbours across them.
 
     A central difference over a window of width ``W`` divides white position noise of standard
     deviation sigma into a speed noise of about ``sqrt(2) sigma / W``."""
@@ -237,6 +238,14 @@ def derived_speed_mm_s(t_s: np.ndarray, pos_mm: np.ndarray, smooth_s: float = 0.
     hi = np.minimum(idx + k, last[brk])
     span = t[hi] - t[lo]
     d = np.linalg.norm(p[hi] - p[lo], axis=1)
+    # a sample alone between two gaps (e.g. dropouts around it) has no neighbour in its piece:
+    # difference it with its direct neighbours across the gaps rather than report rest
+    alone = span <= 0
+    if np.any(alone):
+        a = idx[alone]
+        lo2, hi2 = np.maximum(a - 1, 0), np.minimum(a + 1, m - 1)
+        span[alone] = t[hi2] - t[lo2]
+        d[alone] = np.linalg.norm(p[hi2] - p[lo2], axis=1)
     return np.divide(d, span, out=np.zeros(m), where=span > 0)
 
 

@@ -49,7 +49,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._kernels import (creep_caps, junction_states, knot_feeds_array, peak_feeds, reach_array,
-                       section_pieces)
+                       removable_knots, section_pieces)
 from .machine import MachineSpec
 from .motion import FULL_MODEL, Limit, ModelOptions, Motion, Phase
 from .path import Path
@@ -263,11 +263,13 @@ def _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end,
                   max_rounds=8):
     """Drop knots that do not limit anything, so that ramps run across them.
 
-    The first knot set marks every junction that *might* limit the feed. A knot whose feed
-    stays below its own crossing cap, where neither adjacent section reaches the lower of
-    their set points nor that cap, is only a zero-acceleration stop in the middle of a
-    ramp: it is removed and its two sections merge (set point, jerk and acceleration = the
-    smaller ones, the removed junction's cap included), which keeps every cap.
+    The first knot set marks every junction that *might* limit the feed. A knot where the
+    sections it joins stay below the lower of their set points and of its own crossing cap
+    is only a zero-acceleration stop in the middle of a ramp: it is removed and the sections
+    merge (set point, jerk and acceleration = the smallest ones, the removed junction's cap
+    included), which keeps every cap. Removal walks along the path in groups
+    (``_kernels.removable_knots``): a group grows only while its highest peak stays below its
+    lowest set point, so a merge never lowers the set point under a section's peak.
 
     One condition is on the state, not the feed: with a finite look-ahead the tool must be
     able to stop, from its feed *and acceleration* at junction k, before ``lookahead_end[k]``.
@@ -280,13 +282,10 @@ def _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end,
         inner = np.arange(1, len(k) - 1)
         if inner.size == 0:
             break
-        peak, scap = sol["v_peak"], sol["sec_cap"]
-        merged_cap = np.minimum(np.minimum(scap[inner - 1], scap[inner]), p[k[inner]])
-        highest = np.maximum(peak[inner - 1], peak[inner])
-        removable = ~keep[k[inner]] & (highest < merged_cap * (1.0 - 1e-6))
-        if not np.any(removable):
+        remove = removable_knots(sol["v_peak"], sol["sec_cap"], p[k], keep[k])
+        if not np.any(remove):
             break
-        sol = _solve_knots(np.delete(k, inner[removable]), p, cap, jerk, accel, s_junction)
+        sol = _solve_knots(k[~remove], p, cap, jerk, accel, s_junction)
     if lookahead_end is not None:
         sol, p = _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end)
     return sol, p

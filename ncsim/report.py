@@ -190,6 +190,8 @@ def format_text(s: dict) -> str:
         lines.append("feed-move time by limit")
         total = s["feed_time_s"] or 1.0
         for k, v in sorted(s["time_by_limit_s"].items(), key=lambda kv: -kv[1]):
+            if v < 5e-4:  # a rounding sliver, not a limit worth a line
+                continue
             lines.append(f"  {k:<15} {v:9.3f} s  {100 * v / total:5.1f} %")
     if s["slowest_blocks"]:
         lines.append("")

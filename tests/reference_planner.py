@@ -159,11 +159,18 @@ def plan_reference(path, machine, options, limits, creep_tol=0.01):
 
     secs = solve(knots, p)
     for _ in range(8):
-        inner = range(1, len(knots) - 1)
-        remove = {knots[i] for i in inner
-                  if knots[i] not in keep
-                  and max(secs[i - 1]["peak"], secs[i]["peak"])
-                  < min(secs[i - 1]["cap"], secs[i]["cap"], p[knots[i]]) * (1 - 1e-6)}
+        # walk along the path growing groups of sections while the group's highest peak
+        # stays below its lowest set point (the joined knots' caps included)
+        remove = set()
+        group_cap, group_peak = secs[0]["cap"], secs[0]["peak"]
+        for i in range(1, len(secs)):
+            new_cap = min(group_cap, secs[i]["cap"], p[knots[i]])
+            new_peak = max(group_peak, secs[i]["peak"])
+            if knots[i] not in keep and new_peak < new_cap * (1 - 1e-6):
+                remove.add(knots[i])
+                group_cap, group_peak = new_cap, new_peak
+            else:
+                group_cap, group_peak = secs[i]["cap"], secs[i]["peak"]
         if not remove:
             break
         knots = [k for k in knots if k not in remove]

@@ -267,3 +267,21 @@ def test_clock_prior_tells_twice_visited_places_apart():
                                1000.0, 1e-4, 0.05, 21.0)
         j1 = min(j[0] + 1, len(s) - 1)
         assert s[j[0]] + u[0] * (s[j1] - s[j[0]]) == pytest.approx(expected, abs=1e-6)
+
+
+def test_start_offset_without_a_rest_lead_in():
+    """The recording starts with the motion (no rest before it): the samples before the onset
+    threshold have already moved (J t^3/6 with a jerk-limited start), so the zero offset is
+    taken against the simulated start motion at the aligned instants, not its start point."""
+    dt = 1e-3
+    J = 5000.0                                  # jerk-limited start along +X, then cruise
+    t = np.arange(0.0, 0.6, dt)
+    v = np.where(t < 0.1, J * t ** 2 / 2, np.where(t < 0.2, 50 - J * (0.2 - t) ** 2 / 2, 50.0))
+    s = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * dt)])
+    pos = np.column_stack([s, 0 * s, 0 * s])
+    off = np.array([1.0, 2.0, 3.0])
+    meas = MeasuredTrace(t_s=t + 0.3, pos_mm=pos + off)
+    al = align(meas, pos, t, s, sim_feed_mm_s=v)
+    assert al.offset_method == "start"
+    assert np.allclose(al.offset_mm, off, atol=2e-5)
+    assert abs(al.time_shift_s - 0.3) < 1e-4

@@ -235,3 +235,12 @@ def test_summary_units_and_bad_toml(tmp_path):
     p = write(tmp_path, "[[circle]\nid=1", "bad.toml")
     with pytest.raises(MeasuredDataError, match="bad.toml: not valid TOML"):
         load_measured_summary(p)
+
+
+def test_derived_speed_of_a_sample_alone_between_gaps():
+    # samples every 10 ms along X at 100 mm/s; two gaps longer than 3 periods leave the sample
+    # at 0.5 s alone: it gets the speed across its neighbours, not zero
+    t = np.concatenate([np.arange(0, 0.45, 0.01), [0.5], np.arange(0.55, 1.0, 0.01)])
+    pos = np.column_stack([100 * t, 0 * t, 0 * t])
+    v = derived_speed_mm_s(t, pos)
+    assert np.allclose(v, 100.0)
