@@ -19,11 +19,15 @@ on *sections*:
 * a junction is a **knot** (a zero-acceleration point of the feed law) when something
   happens there: start/end of the program, a stop, a junction cap below the adjacent set
   points (corner, curvature jump, look-ahead), or a change of set point between the blocks;
-* the blocks between two consecutive knots form a **section**: they share one set point
-  ``V_st`` and the section uses the lowest jerk and acceleration of its blocks;
+* the blocks between two consecutive knots form a **section**: its set point ``V_st`` is the
+  lowest set point of its blocks and crossing cap of its inner junctions, and it uses the
+  lowest jerk and acceleration of its blocks;
 * on a section the law is exactly the paper's: A from the start knot's feed, B at ``V_st``
   if the section is long enough, C to the end knot's feed, eq. 16 otherwise. A paper arc is
-  its own section, so the paper's per-block law is reproduced unchanged.
+  its own section, so the paper's per-block law is reproduced unchanged;
+* knots that turn out not to limit anything (the feed stays below the caps on both sides)
+  are removed and their sections merged, in groups that never lower a section's set point
+  below its peak (``_refine_knots``): ramps then run across short blocks as on a real NC.
 
 Knot feeds come from the classic two passes (grbl's planner, in ramp form): backward, each
 knot's feed is at most what one ramp can bring down to the next knot's feed over the
@@ -36,13 +40,18 @@ Look-ahead (840D "dynamic look-ahead", paper §3.2): while a block runs, the NC 
 ``lookahead_blocks`` blocks ahead and must be able to stop at the end of the last one. Block
 ``k`` therefore gets the cap ``ramp_reach(0, S[k + D + 1] - S[k])`` and its end junction
 ``ramp_reach(0, S[k + D + 1] - S[k + 1])``: with too short a look-ahead the feed rises inside
-each block and falls back at its end -- the sawtooth of a starved look-ahead -- and no
-deceleration is ever cut short by the end of the window.
+each block and falls back at its end -- the sawtooth of a starved look-ahead. Beyond feeds,
+the condition holds on the state: from its feed *and acceleration* at every junction the tool
+can stop inside the window (``stopping_distance_mm``); a ramp that would break it is replaced
+by a creep of smaller steps up to the braking-limited feed (``_pin_unstoppable``). So no
+deceleration is ever cut short by the end of the window (tested with ruckig's braking
+profiles).
 
-Why this is never faster than the limits allow: every knot feed respects its cap; inside a
-section every junction cap and block cap is at least the section's set point (otherwise the
-junction would be a knot), and the feed never exceeds it; every ramp has |j| <= J and
-|a| <= A of its section, which are the smallest of the section's blocks.
+Why this is never faster than the limits allow: every knot feed respects its cap; a section's
+set point is at most every cap inside it and the feed never exceeds it; every ramp has
+|j| <= J and |a| <= A of its section, the smallest of its blocks. ``tests/test_plan.py``
+checks these invariants on random paths, ``tests/test_plan_reference.py`` checks the whole
+construction against a plain scalar reference implementation.
 """
 from __future__ import annotations
 
@@ -53,7 +62,7 @@ from ._kernels import (creep_caps, junction_states, knot_feeds_array, peak_feeds
 from .machine import MachineSpec
 from .motion import FULL_MODEL, Limit, ModelOptions, Motion, Phase
 from .path import Path
-from .ramps import ramp_distance_mm, ramp_reach_mm_s
+from .ramps import ramp_distance_mm
 
 _REL = 1e-9  # relative tolerance when comparing feeds
 CREEP_TOL = 0.01  # look-ahead: hold within 1 % of the braking-limited feed (see _pin_unstoppable)
