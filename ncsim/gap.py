@@ -650,8 +650,27 @@ def _iso(ci) -> dict:
 # Diagnosis
 # ---------------------------------------------------------------------------------------------
 
+class RankedFits:
+    """Shared by the diagnoses of a trace and of published values: the best fit, and the
+    corrected model (the combined one when there is one) with its machine file."""
+
+    fits: list
+    combined: "EffectFit | None"
+
+    @property
+    def best(self) -> EffectFit:
+        return self.fits[0]
+
+    @property
+    def corrected_model(self) -> Model:
+        return self.combined.model if self.combined is not None else self.best.model
+
+    def corrected_machine(self) -> MachineSpec:
+        return corrected_machine(self.corrected_model)
+
+
 @dataclass
-class Diagnosis:
+class Diagnosis(RankedFits):
     """Ranked attribution of a measured gap (see :func:`diagnose`)."""
 
     base: str
@@ -667,17 +686,6 @@ class Diagnosis:
     source: str = ""
     program: str = ""
     notes: tuple[str, ...] = ()
-
-    @property
-    def best(self) -> EffectFit:
-        return self.fits[0]
-
-    @property
-    def corrected_model(self) -> Model:
-        return self.combined.model if self.combined is not None else self.best.model
-
-    def corrected_machine(self) -> MachineSpec:
-        return corrected_machine(self.corrected_model)
 
     def as_dict(self) -> dict:
         return {"kind": "trace", "source": self.source, "program": self.program,

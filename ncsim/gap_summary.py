@@ -38,9 +38,9 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from .effects import Model, _jsonable, corrected_machine, get_effect, make_base, model_description
+from .effects import Model, _jsonable, get_effect, make_base, model_description
 from .errors import UsageError
-from .gap import ModelCache, EffectFit, combine, default_candidates, fit_effect, shrink_percent
+from .gap import EffectFit, ModelCache, RankedFits, combine, default_candidates, fit_effect, shrink_percent
 from .interpret import interpret_file
 from .iso230 import circular_deviation
 from .machine import MachineSpec
@@ -222,7 +222,7 @@ class SummaryEvaluator:
 
 
 @dataclass
-class SummaryDiagnosis:
+class SummaryDiagnosis(RankedFits):
     """Attribution of the gap to published values (module docstring)."""
 
     base: str
@@ -245,17 +245,6 @@ class SummaryDiagnosis:
         if on == "radial":
             return sorted(self.fits, key=lambda f: f.gap_after.radial_rms_um)
         raise UsageError(f"unknown ranking {on!r}")
-
-    @property
-    def best(self) -> EffectFit:
-        return self.fits[0]
-
-    @property
-    def corrected_model(self) -> Model:
-        return self.combined.model if self.combined is not None else self.best.model
-
-    def corrected_machine(self) -> MachineSpec:
-        return corrected_machine(self.corrected_model)
 
     def _fit_dict(self, f: EffectFit) -> dict:
         d = f.as_dict()
