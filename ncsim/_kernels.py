@@ -308,7 +308,9 @@ def junction_states(piece_t, piece_s, piece_v, piece_a, piece_j, piece_phase, ph
 
 @njit(cache=True)
 def approach_stop_distance_scalar(v_start, v_peak, jerk, accel):
-    """Scalar twin of ``ncsim.plan.approach_stop_distance_mm``."""
+    """Longest stopping distance met on a ramp from v_start up to v_peak: from the start of
+    its last -J piece (acceleration a_p, duration a_p/J, covering V a_p/J - a_p^3/6J^2) the
+    stop finishes that piece and ramps from V to rest (see ncsim.plan._pin_unstoppable)."""
     dv = max(v_peak - v_start, 0.0)
     a_p = min(accel, math.sqrt(jerk * dv))
     t1 = a_p / jerk

@@ -165,16 +165,6 @@ def servo_lag_mm(t_s: np.ndarray, cmd_mm: np.ndarray, kv_1_s: float, ffw_weight:
     return ffw_weight * u + (1.0 - ffw_weight) * low
 
 
-def normal_accel_vectors_mm_s2(vel_mm_s: np.ndarray, acc_mm_s2: np.ndarray) -> np.ndarray:
-    """The normal part of the acceleration, ``A - (A . t) t`` with ``t = V/|V|`` (paper eq. 1:
-    ``A = dV/dt t + V^2/R n``); zero where the tool stands still."""
-    v = np.asarray(vel_mm_s, dtype=np.float64)
-    a = np.asarray(acc_mm_s2, dtype=np.float64)
-    speed = np.linalg.norm(v, axis=1, keepdims=True)
-    t = np.divide(v, speed, out=np.zeros_like(v), where=speed > 1e-12)
-    return a - np.sum(a * t, axis=1, keepdims=True) * t
-
-
 def compliance_offset_mm(acc_mm_s2: np.ndarray, compliance_s2: float) -> np.ndarray:
     """Quasi-static structural deflection ``-c A`` under the set point's acceleration
     ``A = dV/dt t + V^2 kappa n`` (paper eq. 1), ``c = m/k = 1/w_s^2`` (s^2 = mm per mm/s^2).
@@ -453,7 +443,6 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
 PLANNER_EFFECTS = tuple(n for n, e in EFFECTS.items() if e.kind == "planner")
 #: trace effects that act on a simulated path (the servo part adds ``servo_delay``)
 TRACE_EFFECTS = tuple(n for n, e in EFFECTS.items() if e.kind == "trace" and not e.command_only)
-SERVO_EFFECTS = ("servo_lag", "servo_delay", "compliance")
 
 
 def get_effect(name: str) -> Effect:

@@ -240,8 +240,7 @@ def _compare_speed(mt: ModelTrace, scales: GapScales) -> np.ndarray:
     return derived_speed_mm_s(mt.t_s, mt.pos_mm, scales.speed_window_s)
 
 
-def gap_metrics(al: Alignment, mt: ModelTrace, scales: GapScales,
-                measured_t_s: np.ndarray | None = None) -> GapMetrics:
+def gap_metrics(al: Alignment, mt: ModelTrace, scales: GapScales) -> GapMetrics:
     """Gap metrics of an alignment of a measured trace to a model trace."""
     valid = al.valid
     top = max(float(np.max(mt.feed_mm_s)), float(np.max(al.feed_mm_s)), 1e-9)

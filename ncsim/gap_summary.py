@@ -33,7 +33,6 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from pathlib import Path as FsPath
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -313,7 +312,3 @@ def diagnose_summary(programs: Mapping[str, Path] | Sequence[str], machine: Mach
     return SummaryDiagnosis(base=base, base_model=base_model, gap_before=before, fits=fits,
                             combined=comb, matches=matches, unmatched=unmatched,
                             seconds=time.perf_counter() - t0, source=summary.source)
-
-
-def is_summary_file(file) -> bool:
-    return FsPath(file).suffix.lower() == ".toml"

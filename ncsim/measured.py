@@ -442,22 +442,21 @@ def load_measured_csv(file, *, columns: Mapping[str, str] | None = None,
 
     pos = np.column_stack([col(k) if k in resolved else np.zeros(len(rows)) for k in AXES])
     feed = col("feed") if "feed" in resolved else None
-    vel = None
-    if "vx" in resolved or "vy" in resolved:
-        for k in ("vx", "vy"):
+
+    def axis_group(keys, present, message):
+        """The (m, 3) columns ``keys`` (z may be absent: 0), or None if none of ``present`` is
+        given; X and Y must come together."""
+        if not any(k in resolved for k in present):
+            return None
+        for k in keys[:2]:
             if k not in resolved:
-                raise MeasuredDataError(f"axis velocities need both vx and vy (no column for "
-                                        f"{k!r})", file=name, column=DEFAULT_COLUMNS[k][0])
-        vel = np.column_stack([col(k) if k in resolved else np.zeros(len(rows))
-                               for k in ("vx", "vy", "vz")])
-    cmd = None
-    if any(k in resolved for k in ("x_cmd", "y_cmd", "z_cmd")):
-        for k in ("x_cmd", "y_cmd"):
-            if k not in resolved:
-                raise MeasuredDataError(f"commanded positions need x_cmd and y_cmd (no column "
-                                        f"for {k!r})", file=name, column=DEFAULT_COLUMNS[k][0])
-        cmd = np.column_stack([col(k) if k in resolved else np.zeros(len(rows))
-                               for k in ("x_cmd", "y_cmd", "z_cmd")])
+                raise MeasuredDataError(f"{message} (no column for {k!r})", file=name,
+                                        column=DEFAULT_COLUMNS[k][0])
+        return np.column_stack([col(k) if k in resolved else np.zeros(len(rows)) for k in keys])
+
+    vel = axis_group(("vx", "vy", "vz"), ("vx", "vy"), "axis velocities need both vx and vy")
+    cmd = axis_group(("x_cmd", "y_cmd", "z_cmd"), ("x_cmd", "y_cmd", "z_cmd"),
+                     "commanded positions need x_cmd and y_cmd")
     line = None
     if "line" in resolved:
         raw = col("line")

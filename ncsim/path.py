@@ -59,7 +59,6 @@ _COLUMNS: dict[str, tuple[type, tuple[int, ...], object]] = {
     "stop_before": (np.bool_, (), False),
     "dwell_before_s": (np.float64, (), 0.0),
 }
-COLUMN_NAMES = tuple(_COLUMNS)
 
 
 @dataclass(frozen=True, slots=True)

@@ -304,7 +304,8 @@ def _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end, 
     """Bring every junction state inside the look-ahead's braking room.
 
     The critical state on a ramp towards V is where its last -J piece begins: stopping from
-    there takes that piece plus one ramp from V to rest (``approach_stop_distance_mm``). A
+    there takes that piece plus one ramp from V to rest
+    (``_kernels.approach_stop_distance_scalar``). A
     section whose rise fails at some junction is rebuilt as a creep (``_kernels.creep_caps``):
     ramps to the highest approach feed that passes, each ending at a new knot, then the next
     (smaller) step, until within ``CREEP_TOL`` of the set point, where the feed holds -- as an
@@ -337,17 +338,6 @@ def _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end, 
         new_knots = np.union1d(knots, np.nonzero(keep)[0])
         sol = _solve_knots(new_knots, p, cap, jerk, accel, s_junction)
     return sol, p
-
-
-def approach_stop_distance_mm(v_start_mm_s, v_peak_mm_s, jerk_mm_s3, accel_mm_s2):
-    """Longest stopping distance met on a ramp from v_start up to v_peak: from the start of
-    its last -J piece (acceleration a_p, duration a_p/J, covering V a_p/J - a_p^3/6J^2) the
-    stop finishes that piece and ramps from V to rest."""
-    dv = np.maximum(v_peak_mm_s - v_start_mm_s, 0.0)
-    a_p = np.minimum(accel_mm_s2, np.sqrt(jerk_mm_s3 * dv))
-    t1 = a_p / jerk_mm_s3
-    last = v_peak_mm_s * t1 - a_p ** 3 / (6.0 * jerk_mm_s3 ** 2)
-    return last + ramp_distance_mm(v_peak_mm_s, 0.0, jerk_mm_s3, accel_mm_s2)
 
 
 def _inner_states(sol, s_junction):

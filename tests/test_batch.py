@@ -64,3 +64,12 @@ def test_dask_local_cluster_gives_the_same_results(mikron):
     for d, loc in zip(dask_results, local):
         assert d.ok and d.cycle_time_s == pytest.approx(loc.cycle_time_s, rel=1e-12)
     assert len({r.worker for r in dask_results}) >= 1
+
+
+def test_jobs_must_be_positive(mikron):
+    with pytest.raises(UsageError, match="--jobs must be at least 1"):
+        run_batch(PROGRAMS, mikron, jobs=0)
+    from ncsim.cli import cli
+
+    res = CliRunner().invoke(cli, ["batch", PROGRAMS[0], "--machine", "mikron", "--jobs", "0"])
+    assert res.exit_code == 2 and res.output == "ncsim batch: error: --jobs must be at least 1\n"

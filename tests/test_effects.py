@@ -10,7 +10,7 @@ import pytest
 
 from ncsim.effects import (EFFECTS, PLANNER_EFFECTS, Model, base_names, compliance_offset_mm,
                            corrected_machine, delayed_mm, first_order_lag_coefficients,
-                           get_effect, make_base, normal_accel_vectors_mm_s2, servo_lag_mm)
+                           get_effect, make_base, servo_lag_mm)
 from ncsim.errors import UsageError
 from ncsim.interpret import interpret_text
 from ncsim.machine import dump_machine_toml, load_machine
@@ -55,6 +55,16 @@ def test_servo_lag_circle_radius_is_the_transfer_function_gain(kff):
     r = np.hypot(y[late, 0], y[late, 1])
     gain = math.sqrt((kff ** 2 * w ** 2 + kv ** 2) / (w ** 2 + kv ** 2))
     assert np.allclose(r, R * gain, rtol=2e-4)
+
+
+def normal_accel_vectors_mm_s2(vel_mm_s: np.ndarray, acc_mm_s2: np.ndarray) -> np.ndarray:
+    """The normal part of the acceleration, ``A - (A . t) t`` with ``t = V/|V|`` (paper eq. 1:
+    ``A = dV/dt t + V^2/R n``); zero where the tool stands still."""
+    v = np.asarray(vel_mm_s, dtype=np.float64)
+    a = np.asarray(acc_mm_s2, dtype=np.float64)
+    speed = np.linalg.norm(v, axis=1, keepdims=True)
+    t = np.divide(v, speed, out=np.zeros_like(v), where=speed > 1e-12)
+    return a - np.sum(a * t, axis=1, keepdims=True) * t
 
 
 def test_compliance_is_outward_c_times_normal_acceleration():
