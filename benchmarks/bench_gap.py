@@ -35,10 +35,10 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from ncsim.effects import EFFECTS  # noqa: E402
-from ncsim.gap import diagnose  # noqa: E402
-from ncsim.gap_truth import CASE_KINDS, draw_case, truth_trace  # noqa: E402
-from ncsim.interpret import interpret_file  # noqa: E402
+from ncsim.gap.effects import EFFECTS  # noqa: E402
+from ncsim.gap.diagnose import diagnose  # noqa: E402
+from ncsim.gap.truth.cases import CASE_KINDS, draw_case, truth_trace  # noqa: E402
+from ncsim.nc.interpret import interpret_file  # noqa: E402
 from ncsim.machine import load_machine  # noqa: E402
 
 TOP1_TARGET = 0.90

@@ -54,8 +54,8 @@ def main() -> None:
     args = ap.parse_args()
 
     t0 = time.perf_counter()
-    from ncsim.interpret import interpret_text
-    from ncsim.parse import parse_text
+    from ncsim.nc.interpret import interpret_text
+    from ncsim.nc.parse import parse_text
     interpret_text(plain_program(100, args.arc_every), "warmup.mpf")
     print(f"import + grammar + scanner warm-up: {time.perf_counter() - t0:.2f} s")
 

@@ -31,12 +31,12 @@ sys.path.insert(0, str(HERE))
 STAGES = r"""
 import json, resource, sys, time
 t0 = time.perf_counter()
-from ncsim.parse import parse_file
-from ncsim.interpret import interpret_file
-from ncsim.limits import path_limits
-from ncsim.plan import plan
+from ncsim.nc.parse import parse_file
+from ncsim.nc.interpret import interpret_file
+from ncsim.plan.limits import path_limits
+from ncsim.plan.lookahead import plan
 from ncsim.machine import load_machine
-from ncsim.report import summary
+from ncsim.report.summary import summary
 from ncsim.simulate import Simulation
 from ncsim.motion import FULL_MODEL
 from ncsim.simulate import simulate
@@ -62,8 +62,8 @@ print(json.dumps(dict(import_s=t_import, warm_s=warm_s, parse_s=parse_s, interpr
 TRACE = r"""
 import json, sys, time, os, tempfile
 from ncsim.simulate import simulate
-from ncsim.sample import sample_motion
-from ncsim.csvio import write_trace_csv
+from ncsim.plan.sample import sample_motion
+from ncsim.report.csvio import write_trace_csv
 sim = simulate(sys.argv[1], "mikron")
 dt = sim.motion.total_time_s / 1_000_000
 trace = sample_motion(sim.motion, dt)

@@ -17,11 +17,11 @@ import time
 
 import numpy as np
 
-from ncsim.csvio import ALL_COLUMNS, read_trace_csv, write_trace_csv
+from ncsim.report.csvio import ALL_COLUMNS, read_trace_csv, write_trace_csv
 from ncsim.machine import load_machine
 from ncsim.motion import FULL_MODEL, Limit, Motion, Phase
 from ncsim.path import ARC, LINE, PathBuilder
-from ncsim.sample import sample_motion
+from ncsim.plan.sample import sample_motion
 
 
 def bench_path(n_blocks: int = 20_000):

@@ -1,5 +1,5 @@
 """`python -m ncsim` is the `ncsim` command."""
-from .cli import main
+from ncsim.cli.main import main
 
 if __name__ == "__main__":
     main()

@@ -13,9 +13,9 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass
 from typing import Callable, Iterable
 
-from .errors import NcsimError, UsageError
-from .machine import MachineSpec
-from .motion import FULL_MODEL, ModelOptions
+from ncsim.errors import NcsimError, UsageError
+from ncsim.machine import MachineSpec
+from ncsim.motion import FULL_MODEL, ModelOptions
 
 
 @dataclass(frozen=True)
@@ -50,8 +50,8 @@ def expand_programs(patterns: Iterable[str]) -> list[str]:
 
 def simulate_one(program: str, machine: MachineSpec, options: ModelOptions = FULL_MODEL) -> BatchResult:
     """Simulate one program and summarise it (runs in a worker process)."""
-    from .report import summary
-    from .simulate import simulate
+    from ncsim.report.summary import summary
+    from ncsim.simulate import simulate
 
     t0 = time.perf_counter()
     worker = f"{os.uname().nodename}:{os.getpid()}"

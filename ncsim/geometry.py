@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .path import ARC, Path
+from ncsim.path import ARC, Path
 
 TWO_PI = 2.0 * np.pi
 

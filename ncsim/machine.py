@@ -16,8 +16,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .errors import MachineSpecError
-from .units import m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min, ms_to_s, s_to_ms
+from ncsim.errors import MachineSpecError
+from ncsim.units import m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min, ms_to_s, s_to_ms
 
 AXIS_NAMES = ("X", "Y", "Z")
 WORK_OFFSET_NAMES = ("G54", "G55", "G56", "G57")

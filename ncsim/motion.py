@@ -19,8 +19,8 @@ from enum import IntEnum
 
 import numpy as np
 
-from .machine import MachineSpec
-from .path import Path
+from ncsim.machine import MachineSpec
+from ncsim.path import Path
 
 
 class Limit(IntEnum):

@@ -9,13 +9,13 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path as FsPath
 
-from .errors import NcWarning
-from .interpret import InterpretResult, interpret_file, interpret_text
-from .limits import PathLimits, path_limits
-from .machine import MachineSpec, load_machine
-from .motion import FULL_MODEL, ModelOptions, Motion
-from .path import Path
-from .plan import plan
+from ncsim.errors import NcWarning
+from ncsim.nc.interpret import InterpretResult, interpret_file, interpret_text
+from ncsim.plan.limits import PathLimits, path_limits
+from ncsim.machine import MachineSpec, load_machine
+from ncsim.motion import FULL_MODEL, ModelOptions, Motion
+from ncsim.path import Path
+from ncsim.plan.lookahead import plan
 
 
 @dataclass(frozen=True)

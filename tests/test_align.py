@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ncsim.align import AlignPhase, align, motion_onset_s, xcorr_shift_s
+from ncsim.gap.align import AlignPhase, align, motion_onset_s, xcorr_shift_s
 from ncsim.errors import UsageError
-from ncsim.measured import MeasuredTrace
-from ncsim.synth import ScopeConfig, degrade
+from ncsim.gap.measured import MeasuredTrace
+from ncsim.gap.truth.synth import ScopeConfig, degrade
 
 R = 30.0      # circle radius
 L0 = 10.0     # line length before the circle
@@ -207,7 +207,7 @@ def test_servo_truth_end_to_end():
     # truth from the time-stepping servo (FFWOF, Kv = 40 1/s), recorded with a 3.7 s clock
     # offset. On the steady part of the circle the actual radius is R / sqrt(1 + (W/Kv)^2), so
     # the contour distance to the simulated circle is R (1 - 1/sqrt(1 + (W/Kv)^2)) = 0.2314 mm.
-    from ncsim.servo import ServoParams, simulate_servo
+    from ncsim.gap.truth.servo import ServoParams, simulate_servo
     V, kv = 150.0, 40.0
     S = sim(V=V)
     r = simulate_servo(S["t"], S["pos"], ServoParams(kv_1_s=kv))
@@ -224,7 +224,7 @@ def test_servo_truth_end_to_end():
 
 
 def test_align_trace_reads_the_trace_columns():
-    from ncsim.align import align_trace
+    from ncsim.gap.align import align_trace
     from ncsim.trace import Trace
     S = sim()
     n = len(S["t"])
@@ -256,7 +256,7 @@ def test_full_circle_start_equals_end():
 
 
 def test_clock_prior_tells_twice_visited_places_apart():
-    from ncsim.align import project_on_path
+    from ncsim.gap.align import project_on_path
     a = np.linspace(0, 2 * np.pi, 2001)
     pts = np.column_stack([R * np.cos(a), R * np.sin(a), 0 * a])
     s = R * a

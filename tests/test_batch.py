@@ -7,7 +7,7 @@ import pytest
 from click.testing import CliRunner
 
 from ncsim.batch import expand_programs, run_batch, simulate_one
-from ncsim.cli_batch import batch
+from ncsim.cli.batch import batch
 from ncsim.errors import UsageError
 from ncsim.simulate import simulate
 
@@ -69,7 +69,7 @@ def test_dask_local_cluster_gives_the_same_results(mikron):
 def test_jobs_must_be_positive(mikron):
     with pytest.raises(UsageError, match="--jobs must be at least 1"):
         run_batch(PROGRAMS, mikron, jobs=0)
-    from ncsim.cli import cli
+    from ncsim.cli.main import cli
 
     res = CliRunner().invoke(cli, ["batch", PROGRAMS[0], "--machine", "mikron", "--jobs", "0"])
     assert res.exit_code == 2 and res.output == "ncsim batch: error: --jobs must be at least 1\n"

@@ -19,7 +19,7 @@ import math
 import pytest
 from click.testing import CliRunner
 
-from ncsim.cli import cli
+from ncsim.cli.main import cli
 
 J = 5_000.0                                   # mm/s^3
 L_CIRCLE = 2 * math.pi * 30.0                 # mm

@@ -13,7 +13,7 @@ import matplotlib.image as matplotlib_image
 import pytest
 from click.testing import CliRunner
 
-from ncsim.cli import cli
+from ncsim.cli.main import cli
 
 
 def invoke(*args):

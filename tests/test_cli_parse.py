@@ -6,7 +6,7 @@ import json
 import pytest
 from click.testing import CliRunner
 
-from ncsim.cli import cli
+from ncsim.cli.main import cli
 
 
 def invoke(*args):
@@ -86,7 +86,7 @@ def test_missing_files_and_bad_setup(tmp_path, program):
 
 def test_endless_loop_exits_2_at_its_line(tmp_path, monkeypatch):
     """The block budget error through the CLI (budget lowered from 10 000 000 to keep it fast)."""
-    from ncsim import interpret
+    from ncsim.nc import interpret
     real = interpret.interpret_file
     monkeypatch.setattr(interpret, "interpret_file", lambda *a, **k: real(*a, **k, block_budget=50))
     p = tmp_path / "loop.mpf"

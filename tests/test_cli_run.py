@@ -17,7 +17,7 @@ import math
 import pytest
 from click.testing import CliRunner
 
-from ncsim.cli import Progress, cli
+from ncsim.cli.main import Progress, cli
 
 # MIKRON (paper Table 1, sec. 5.2.4, 5.3.2) in mm and s
 J_TCURV = 10_000.0 * 0.6      # mm/s^3, eq. 10

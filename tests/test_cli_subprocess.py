@@ -48,7 +48,7 @@ def test_bad_program_is_one_line_on_stderr_and_exit_2(tmp_path):
 
 def test_run_does_not_import_matplotlib(repo_root):
     """`ncsim run` stays lean: matplotlib is imported only by `plot` and `explain --plot`."""
-    code = ("import sys\nfrom click.testing import CliRunner\nfrom ncsim.cli import cli\n"
+    code = ("import sys\nfrom click.testing import CliRunner\nfrom ncsim.cli.main import cli\n"
             f"r = CliRunner().invoke(cli, ['run', {str(repo_root / 'programs' / 'circle_r30_f6000.mpf')!r},"
             " '-m', 'mikron'])\nassert r.exit_code == 0, r.output\n"
             "print('matplotlib' in sys.modules)")

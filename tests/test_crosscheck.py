@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from ncsim.crosscheck import (EXCEEDED_ACCEL, EXCEEDED_FEED, EXCEEDED_JERK, Reason,
+from ncsim.plan.crosscheck import (EXCEEDED_ACCEL, EXCEEDED_FEED, EXCEEDED_JERK, Reason,
                               _ruckig_durations, block_piece_stats, crosscheck, select_blocks)
 from ncsim.errors import UsageError
 from ncsim.motion import Limit, Phase
@@ -286,7 +286,7 @@ def test_max_blocks_is_a_deterministic_sample(mikron):
 
 @pytest.mark.parametrize("radius_mm", [2.5, 30.0])
 def test_planned_paper_circles_are_never_faster_than_ruckig(mikron, radius_mm):
-    from ncsim.plan import plan
+    from ncsim.plan.lookahead import plan
     motion = plan(circle_path(radius_mm, 100.0), mikron)  # 6 m/min, paper §5.2.2
     rep = crosscheck(motion)
     s = rep.summary()

@@ -15,7 +15,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from ncsim.csvio import (ALL_COLUMNS, DEFAULT_COLUMNS, FLOAT, INT, LABEL, LIMIT_LABELS,
+from ncsim.report.csvio import (ALL_COLUMNS, DEFAULT_COLUMNS, FLOAT, INT, LABEL, LIMIT_LABELS,
                          format_rows, read_trace_csv, trace_from_columns, write_trace_csv)
 from ncsim.errors import MeasuredDataError, UsageError
 from ncsim.motion import Limit, Phase
@@ -167,7 +167,7 @@ def test_text_and_binary_streams_and_chosen_columns():
 def test_sampled_motion_round_trips_through_trace_from_columns(tmp_path, mikron):
     from test_sample import circle_path, single_block_motion
 
-    from ncsim.sample import sample_motion
+    from ncsim.plan.sample import sample_motion
 
     motion = single_block_motion(mikron, circle_path(30.0, 100.0), 100.0, 2500.0, 5000.0)
     trace = sample_motion(motion)
@@ -275,7 +275,7 @@ def test_bad_codes_and_unwritable_path(tmp_path):
 @given(st.integers(0, 2**31 - 1), st.integers(1, 300))
 def test_compiled_writer_is_byte_identical_to_the_numpy_formatter(seed, m):
     """The compiled row writer and the vectorised numpy formatter give the same bytes."""
-    from ncsim import csvio
+    from ncsim.report import csvio
 
     rng = np.random.default_rng(seed)
     cols = [rng.normal(0, 10.0 ** rng.integers(-3, 8), m), rng.integers(-10**9, 10**9, m),

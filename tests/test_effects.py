@@ -8,14 +8,14 @@ import math
 import numpy as np
 import pytest
 
-from ncsim.effects import (EFFECTS, PLANNER_EFFECTS, Model, base_names, compliance_offset_mm,
+from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, Model, base_names, compliance_offset_mm,
                            corrected_machine, delayed_mm, first_order_lag_coefficients,
                            get_effect, make_base, servo_lag_mm)
 from ncsim.errors import UsageError
-from ncsim.interpret import interpret_text
+from ncsim.nc.interpret import interpret_text
 from ncsim.machine import dump_machine_toml, load_machine
 from ncsim.motion import FULL_MODEL
-from ncsim.plan import plan
+from ncsim.plan.lookahead import plan
 
 
 def circle(R, v, t):

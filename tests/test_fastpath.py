@@ -14,11 +14,11 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from ncsim import interpret
+from ncsim.nc import interpret
 from ncsim.errors import NcError
-from ncsim.fastparse import scan_plain
-from ncsim.interpret import interpret_text
-from ncsim.parse import parse_text
+from ncsim.nc.fastparse import scan_plain
+from ncsim.nc.interpret import interpret_text
+from ncsim.nc.parse import parse_text
 from ncsim.path import path_columns
 
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -10,16 +10,16 @@ import math
 import numpy as np
 import pytest
 
-from ncsim.effects import Param, get_effect, make_base
+from ncsim.gap.effects import Param, get_effect, make_base
 from ncsim.errors import UsageError
-from ncsim.gap import (Evaluator, ModelCache, _float_search, _int_search, diagnose, fit_values,
+from ncsim.gap.diagnose import (Evaluator, ModelCache, _float_search, _int_search, diagnose, fit_values,
                        localise, shrink_percent)
-from ncsim.gap_truth import Case, draw_case, truth_trace
-from ncsim.interpret import interpret_file, interpret_text
+from ncsim.gap.truth.cases import Case, draw_case, truth_trace
+from ncsim.nc.interpret import interpret_file, interpret_text
 from ncsim.machine import load_machine
-from ncsim.measured import MeasuredTrace
-from ncsim.servo import ServoParams, simulate_servo
-from ncsim.synth import ScopeConfig, degrade
+from ncsim.gap.measured import MeasuredTrace
+from ncsim.gap.truth.servo import ServoParams, simulate_servo
+from ncsim.gap.truth.synth import ScopeConfig, degrade
 
 REPO_PROGRAM = "programs/diagnosis_mix.mpf"
 

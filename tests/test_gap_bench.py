@@ -10,8 +10,8 @@ import sys
 import numpy as np
 import pytest
 
-from ncsim.effects import EFFECTS
-from ncsim.gap_truth import CASE_KINDS, draw_case, truth_model
+from ncsim.gap.effects import EFFECTS
+from ncsim.gap.truth.cases import CASE_KINDS, draw_case, truth_model
 from ncsim.machine import load_machine
 
 

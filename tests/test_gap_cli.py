@@ -9,13 +9,13 @@ import click
 import pytest
 from click.testing import CliRunner
 
-from ncsim.cli import NcsimGroup
-from ncsim.cli_gap import gap
-from ncsim.gap_truth import Case, truth_trace
-from ncsim.interpret import interpret_text
+from ncsim.cli.main import NcsimGroup
+from ncsim.cli.gap import gap
+from ncsim.gap.truth.cases import Case, truth_trace
+from ncsim.nc.interpret import interpret_text
 from ncsim.machine import load_machine
-from ncsim.measured import write_measured_csv
-from ncsim.synth import ScopeConfig
+from ncsim.gap.measured import write_measured_csv
+from ncsim.gap.truth.synth import ScopeConfig
 
 
 @click.group(cls=NcsimGroup)
@@ -162,10 +162,10 @@ def test_trace_without_program_or_command(spiral_case):
 def test_split_planner_and_servo_parts(tmp_path):
     """Command and actual recorded: the planner part names the withheld transition crossing
     from the command, the servo part the position loop (FFWOF, Kv 40 1/s) of the RK4 truth."""
-    from ncsim.effects import get_effect, make_base
-    from ncsim.gap import ModelCache
-    from ncsim.servo import ServoParams, simulate_servo
-    from ncsim.synth import degrade
+    from ncsim.gap.effects import get_effect, make_base
+    from ncsim.gap.diagnose import ModelCache
+    from ncsim.gap.truth.servo import ServoParams, simulate_servo
+    from ncsim.gap.truth.synth import degrade
     prog = tmp_path / "spiral.mpf"
     prog.write_text(SPIRAL)
     m = load_machine("mikron")

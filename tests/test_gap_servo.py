@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from ncsim.errors import UsageError
-from ncsim.gap_servo import ServoEvaluator, diagnose_servo
-from ncsim.measured import MeasuredTrace
-from ncsim.servo import ServoParams, simulate_servo
-from ncsim.synth import ScopeConfig, degrade
+from ncsim.gap.servo_part import ServoEvaluator, diagnose_servo
+from ncsim.gap.measured import MeasuredTrace
+from ncsim.gap.truth.servo import ServoParams, simulate_servo
+from ncsim.gap.truth.synth import ScopeConfig, degrade
 
 
 def command(dt=1e-3):

@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 from ncsim.errors import UsageError
-from ncsim.gap import combine
-from ncsim.gap_summary import (SummaryEvaluator, combination_order, diagnose_summary, load_programs,
+from ncsim.gap.diagnose import combine
+from ncsim.gap.published import (SummaryEvaluator, combination_order, diagnose_summary, load_programs,
                                match_entries)
 from ncsim.machine import load_machine
-from ncsim.measured import load_measured_summary, summary_from_dict
+from ncsim.gap.measured import load_measured_summary, summary_from_dict
 
 PAPER_PROGRAMS = [f"programs/circle_r2p5_f{f}.mpf" for f in (6000, 9000, 12000, 24000)] + \
                  [f"programs/circle_r30_f{f}.mpf" for f in (6000, 9000, 12000, 24000)] + \

@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import pytest
 
-from ncsim import program as P
+from ncsim.nc import program as P
 from ncsim.errors import NcSyntaxError
-from ncsim.parse import parse_block, upper_code
+from ncsim.nc.parse import parse_block, upper_code
 
 
 def items(text):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from ncsim.interpret import interpret_file, interpret_text
+from ncsim.nc.interpret import interpret_file, interpret_text
 
 
 def xs(text, **kw):

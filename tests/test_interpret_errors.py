@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 
 from ncsim.errors import NcError, NcSemanticError, NcSyntaxError, NcUnsupportedError
-from ncsim.interpret import interpret_text
+from ncsim.nc.interpret import interpret_text
 
 CASES = [
     # (id, program, error class, line, column, message fragment)

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from ncsim.frames import Frame, axis_rotation, cos_sin_deg, read_setup_offsets, rotation_rpy
+from ncsim.nc.frames import Frame, axis_rotation, cos_sin_deg, read_setup_offsets, rotation_rpy
 from ncsim.errors import MachineSpecError
-from ncsim.interpret import interpret_text
+from ncsim.nc.interpret import interpret_text
 
 
 def ends(text, **kw):

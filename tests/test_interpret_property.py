@@ -8,7 +8,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from ncsim.errors import NcError
-from ncsim.interpret import InterpretResult, interpret_text
+from ncsim.nc.interpret import InterpretResult, interpret_text
 from ncsim.path import ARC, LINE
 
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from ncsim.errors import UsageError
-from ncsim.iso230 import (circular_deviation, deviation_profile, fit_circle, fit_circle_kasa,
+from ncsim.gap.iso230 import (circular_deviation, deviation_profile, fit_circle, fit_circle_kasa,
                           radial_deviation_um)
 
 

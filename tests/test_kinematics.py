@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from ncsim import kinematics as kin
+from ncsim.plan import kinematics as kin
 
 M_MIN = 1000.0 / 60.0   # mm/s per m/min
 V_AX = np.array([30.0, 30.0, 30.0]) * M_MIN        # Table 1, V_mi

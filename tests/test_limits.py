@@ -14,8 +14,8 @@ import time
 import numpy as np
 import pytest
 
-from ncsim import limits as limits_mod
-from ncsim.limits import CANDIDATE_LABELS, PathLimits, path_limits
+from ncsim.plan import limits as limits_mod
+from ncsim.plan.limits import CANDIDATE_LABELS, PathLimits, path_limits
 from ncsim.motion import FULL_MODEL, Limit, ModelOptions
 from ncsim.path import BRISK, DRIVE, SOFT, PathBuilder
 

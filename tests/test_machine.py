@@ -7,7 +7,7 @@ from dataclasses import replace
 import pytest
 from click.testing import CliRunner
 
-from ncsim.cli import cli
+from ncsim.cli.main import cli
 from ncsim.errors import MachineSpecError
 from ncsim.machine import bundled_machines, dump_machine_toml, load_machine, machine_from_dict
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from ncsim.errors import MeasuredDataError, UsageError
-from ncsim.measured import (MeasuredTrace, derived_speed_mm_s, load_measured_csv,
+from ncsim.gap.measured import (MeasuredTrace, derived_speed_mm_s, load_measured_csv,
                             load_measured_summary, load_umich_csv, summary_from_dict,
                             write_measured_csv)
 

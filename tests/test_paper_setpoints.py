@@ -15,9 +15,9 @@ from pathlib import Path as FsPath
 import numpy as np
 import pytest
 
-from ncsim.interpret import interpret_file
+from ncsim.nc.interpret import interpret_file
 
-from ncsim.limits import path_limits
+from ncsim.plan.limits import path_limits
 from ncsim.motion import Limit
 from ncsim.path import Path, PathBuilder
 

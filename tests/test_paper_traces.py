@@ -15,11 +15,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ncsim.crosscheck import crosscheck
+from ncsim.plan.crosscheck import crosscheck
 from ncsim.machine import load_machine
 from ncsim.motion import Phase
 from ncsim.path import SOFT
-from ncsim.sample import sample_motion
+from ncsim.plan.sample import sample_motion
 from ncsim.simulate import simulate
 
 PROGRAMS = Path(__file__).resolve().parent.parent / "programs"

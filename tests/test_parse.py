@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ncsim import program as P
+from ncsim.nc import program as P
 from ncsim.errors import NcError, NcSyntaxError
-from ncsim.parse import parse_file, parse_text
+from ncsim.nc.parse import parse_file, parse_text
 
 MIXED = "G17 G90\nN10 G1 X1 F100\nN20 X2\nN30 X3 CR=5\n\nX4\nLBL: X5\n"
 

@@ -15,7 +15,7 @@ from ruckig import ControlInterface, InputParameter, Result, Ruckig, Trajectory
 
 from ncsim.motion import Limit, ModelOptions, Phase
 from ncsim.path import LINE, PathBuilder
-from ncsim.plan import plan
+from ncsim.plan.lookahead import plan
 
 NO_LOOKAHEAD = ModelOptions(lookahead=False)
 
@@ -210,7 +210,7 @@ def test_dwell_is_standstill_time(mikron):
 @settings(max_examples=200, deadline=None)
 @given(st.floats(0.0, 300.0), st.floats(-1.0, 1.0), st.floats(500.0, 50000.0), st.floats(100.0, 5000.0))
 def test_stopping_distance_matches_ruckig(v, a_share, jerk, accel):
-    from ncsim.plan import stopping_distance_mm
+    from ncsim.plan.lookahead import stopping_distance_mm
 
     a = a_share * accel
     if a < 0 and v - a * a / (2 * jerk) < 0:
@@ -222,7 +222,7 @@ def test_stopping_distance_matches_ruckig(v, a_share, jerk, accel):
 @settings(max_examples=100, deadline=None)
 @given(st.lists(st.floats(-1e6, 1e6), min_size=0, max_size=60), st.integers(1, 12))
 def test_window_min_equals_slicing(values, width):
-    from ncsim.plan import window_min
+    from ncsim.plan.lookahead import window_min
 
     x = np.array(values, dtype=float)
     expected = np.array([x[k:k + width].min() for k in range(len(x))])

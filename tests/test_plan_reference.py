@@ -10,11 +10,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from ncsim.interpret import interpret_text
-from ncsim.limits import path_limits
+from ncsim.nc.interpret import interpret_text
+from ncsim.plan.limits import path_limits
 from ncsim.machine import load_machine
 from ncsim.motion import ModelOptions
-from ncsim.plan import plan
+from ncsim.plan.lookahead import plan
 from reference_planner import plan_reference
 
 

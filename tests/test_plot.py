@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from ncsim.cli import cli
+from ncsim.cli.main import cli
 
 FULL_PANELS = ("feed_time", "accel", "jerk", "xy_path", "feed_path")
 YLABELS = {"feed_time": "feed (mm/min)", "feed_path": "feed (mm/min)", "xy_path": "Y (mm)",
@@ -29,7 +29,7 @@ def bore_sim(repo_root):
 
 @pytest.fixture(scope="module")
 def bore_trace(bore_sim):
-    from ncsim.sample import sample_motion
+    from ncsim.plan.sample import sample_motion
     return sample_motion(bore_sim.motion, 0.002)
 
 
@@ -39,7 +39,7 @@ def _panel_axes(fig):
 
 
 def test_figure_has_five_labelled_panels_limit_legend_and_boundaries(bore_sim, bore_trace):
-    from ncsim.plot import run_figure
+    from ncsim.report.plot import run_figure
     result = run_figure(bore_trace, motion=bore_sim.motion, title="bore")
     fig = result.figure
     assert result.panels == FULL_PANELS and result.missing == {}
@@ -68,8 +68,8 @@ def test_figure_has_five_labelled_panels_limit_legend_and_boundaries(bore_sim, b
 
 
 def test_csv_without_dynamics_columns_gives_three_panels(bore_trace):
-    from ncsim.csvio import DEFAULT_COLUMNS
-    from ncsim.plot import available_panels
+    from ncsim.report.csvio import DEFAULT_COLUMNS
+    from ncsim.report.plot import available_panels
     from ncsim.trace import Trace
     nan = np.full(len(bore_trace), np.nan)
     thin = Trace(**{**{f: getattr(bore_trace, f) for f in Trace.__slots__},

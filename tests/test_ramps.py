@@ -7,8 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from ruckig import InputParameter, Result, Ruckig, Trajectory
 
-from ncsim import _kernels as K
-from ncsim.ramps import peak_feed_mm_s, ramp_distance_mm, ramp_pieces, ramp_reach_mm_s, ramp_time_s
+from ncsim.plan import _kernels as K
+from ncsim.plan.ramps import peak_feed_mm_s, ramp_distance_mm, ramp_pieces, ramp_reach_mm_s, ramp_time_s
 
 feeds = st.floats(0.0, 500.0)
 jerks = st.floats(100.0, 100_000.0)

@@ -20,7 +20,7 @@ import matplotlib.image as matplotlib_image
 import pytest
 from click.testing import CliRunner
 
-from ncsim.cli import cli
+from ncsim.cli.main import cli
 
 FIGURE_COMMAND = "ncsim plot programs/bore_d25_f5984.mpf --machine mikron -o docs/bore_d25_f5984.png"
 
@@ -197,7 +197,7 @@ def test_every_json_summary_key_is_documented(readme, repo_root):
 
 
 def test_every_csv_column_and_limit_is_documented(readme):
-    from ncsim.csvio import ALL_COLUMNS
+    from ncsim.report.csvio import ALL_COLUMNS
     from ncsim.motion import LIMIT_LABELS
     assert set(ALL_COLUMNS) - _documented(section(readme, "CSV trace")) == set()
     assert set(LIMIT_LABELS) - _documented(section(readme, "JSON summary")) == set()

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ncsim.interpret import interpret_file
+from ncsim.nc.interpret import interpret_file
 from ncsim.path import ARC, path_columns
 
 DATA = Path(__file__).parent / "data" / "thws"

@@ -15,7 +15,7 @@ import ruckig
 from ncsim.errors import UsageError
 from ncsim.motion import FULL_MODEL, Limit, Motion, Phase
 from ncsim.path import PathBuilder
-from ncsim.sample import block_table, sample_motion, time_grid_s
+from ncsim.plan.sample import block_table, sample_motion, time_grid_s
 
 
 # ---------------------------------------------------------------------------------------------
@@ -281,7 +281,7 @@ def test_frenet_form_agrees_with_geometry_and_closed_forms():
     ncsim.geometry; on the circle d(kappa n)/ds = -kappa^2 t (the eq. 3 term), on the
     helix (w x kappa n) / rho (Frenet-Serret with torsion)."""
     from ncsim.geometry import curvature_at, point_at, tangent_at
-    from ncsim.sample import frenet_at, segment_coefficients
+    from ncsim.plan.sample import frenet_at, segment_coefficients
 
     path = mixed_path()
     rng = np.random.default_rng(1)
@@ -387,7 +387,7 @@ def test_steady_samples_take_the_cap_limit_of_their_block(mikron):
 
 def test_sample_times_in_any_order_and_chunking(mikron, monkeypatch):
     """Chunked evaluation gives the same columns as one pass; unsorted times work."""
-    import ncsim.sample as sample
+    import ncsim.plan.sample as sample
 
     motion, _ = two_lines_with_dwell(mikron)
     t = np.random.default_rng(3).uniform(0, motion.total_time_s, 1000)
@@ -460,7 +460,7 @@ def test_planned_paper_circle_samples(mikron):
     """Integration with the planner (paper §5.2.2: R = 2.5 mm at 6 m/min): positions stay on
     the circle, the steady feed is the set point (V_Jtcurv = 2.01 m/min, eq. 11), the steady
     normal acceleration is V^2/R and axis velocities match finite differences."""
-    from ncsim.plan import plan
+    from ncsim.plan.lookahead import plan
     motion = plan(circle_path(2.5, 100.0), mikron)
     tr = sample_motion(motion, 1e-3)
     np.testing.assert_allclose(np.hypot(tr.pos_mm[:, 0], tr.pos_mm[:, 1]), 2.5, atol=1e-12)

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from ncsim.errors import UsageError
-from ncsim.measured import MeasuredTrace
-from ncsim.servo import (ServoParams, estimate_lag, simulate_servo,
+from ncsim.gap.measured import MeasuredTrace
+from ncsim.gap.truth.servo import (ServoParams, estimate_lag, simulate_servo,
                          three_significant_figures_step_mm, transfer_function)
 
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from ncsim.errors import UsageError
-from ncsim.synth import ScopeConfig, degrade, dropout_mask, quantise, sample_times_s
+from ncsim.gap.truth.synth import ScopeConfig, degrade, dropout_mask, quantise, sample_times_s
 
 
 def truth(duration_s=2.0, dt=2.5e-4):

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from ncsim.gap_servo import diagnose_servo
-from ncsim.measured import load_umich_csv
+from ncsim.gap.servo_part import diagnose_servo
+from ncsim.gap.measured import load_umich_csv
 
 DATA = Path(__file__).resolve().parent / "data" / "umich"
 

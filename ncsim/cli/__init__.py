@@ -1,0 +1,1 @@
+"""The ``ncsim`` command: argument parsing, output and exit codes only."""

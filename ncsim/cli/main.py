@@ -1,0 +1,642 @@
+"""The `ncsim` command: argument handling, output and exit codes only.
+
+The library raises :class:`ncsim.errors.NcsimError`; this module prints its one-line
+rendering on stderr and exits with :class:`ncsim.errors.ExitStatus` (never a traceback).
+Bad command-line usage (an unknown option, a value out of range) is one line as well, exit 2.
+
+Commands: ``run`` (cycle time and where the feed is limited), ``plot``, ``check`` (CI
+thresholds), ``machines``, ``explain`` (a machine's derived limits), ``parse`` and ``batch``.
+Heavy modules (the planner, matplotlib) are imported inside the commands that need them, so
+that ``ncsim run`` starts quickly and never imports matplotlib.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import threading
+import time
+from contextlib import contextmanager
+
+import click
+
+from ncsim import __version__
+from ncsim.errors import ExitStatus, NcsimError, UsageError
+
+
+class NcsimGroup(click.Group):
+    """A click group that turns ncsim errors into one line on stderr and exit status 2."""
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except NcsimError as exc:
+            text = exc.render()
+            if isinstance(exc, UsageError) and ctx.invoked_subcommand:  # no file to name
+                text = f"{ctx.command_path} {ctx.invoked_subcommand}: error: {text}"
+            click.echo(text, err=True)
+            ctx.exit(int(exc.exit_status))
+        except click.UsageError as exc:
+            if type(exc).__name__ == "NoArgsIsHelpError":  # `ncsim run` alone: show the help
+                raise
+            click.echo(_usage_line(exc), err=True)
+            ctx.exit(int(ExitStatus.BAD_INPUT))
+
+
+def _usage_line(exc: click.UsageError) -> str:
+    """A click usage error as one line: ``ncsim run: error: ... (see 'ncsim run --help')``."""
+    path = exc.ctx.command_path if exc.ctx is not None else "ncsim"
+    message = " ".join(exc.format_message().split())
+    return f"{path}: error: {message} (see '{path} --help')"
+
+
+@click.group(name="ncsim", cls=NcsimGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="ncsim")
+def cli() -> None:
+    """Simulate SINUMERIK 840D programs on a high-speed machine: cycle time, feed limits, gaps.
+
+    \b
+    ncsim run PROGRAM --machine mikron        cycle time, reached feed, where time is lost
+    ncsim plot PROGRAM --machine mikron -o run.png
+    ncsim check PROGRAM --machine mikron --max-time 60
+    ncsim machines / ncsim explain --machine mikron
+
+    Exit status: 0 ok, 1 a `check` threshold failed, 2 bad input.
+    """
+
+
+@cli.command("parse")
+@click.argument("program", type=click.Path(dir_okay=False))
+@click.option("--machine", "machine_name", default=None,
+              help="Machine: a bundled name (mikron) or a TOML file; gives work offsets and circle tolerances.")
+@click.option("--setup", "setup_file", default=None, type=click.Path(dir_okay=False),
+              help="Setup TOML with [work_offsets] G54 = [x, y, z] (overrides the machine's).")
+@click.option("--json", "as_json", is_flag=True, help="Print the segments and summary as JSON.")
+@click.option("--limit", type=click.IntRange(min=0), default=None, help="Print only the first N segments.")
+def parse_cmd(program, machine_name, setup_file, as_json, limit) -> None:
+    """Interpret PROGRAM and list its path segments (warnings on stderr)."""
+    from ncsim.nc.frames import read_setup_offsets
+    from ncsim.nc.interpret import interpret_file
+    from ncsim.machine import load_machine
+
+    machine = load_machine(machine_name) if machine_name else None
+    offsets = read_setup_offsets(setup_file) if setup_file else None
+    result = interpret_file(program, machine, setup_offsets=offsets)
+    for warning in result.warnings:
+        click.echo(warning.render(), err=True)
+    path = result.path
+    shown = path.n if limit is None else min(limit, path.n)
+    if as_json:
+        import json
+        click.echo(json.dumps({
+            "program": program,
+            "segments": [_segment_dict(path.segment(i)) for i in range(shown)],
+            "summary": _summary_dict(result),
+            "warnings": [w.render() for w in result.warnings]}, indent=1))
+        return
+    for i in range(shown):
+        click.echo(_segment_text(path.segment(i)))
+    if shown < path.n:
+        click.echo(f"... {path.n - shown} more segments")
+    s = _summary_dict(result)
+    click.echo(f"segments: {s['segments']} ({s['lines']} lines, {s['arcs']} arcs)  "
+               f"total length: {s['total_length_mm']:.3f} mm  blocks executed: "
+               f"{s['blocks_executed']}  warnings: {s['warnings']}")
+
+
+def _xyz(v) -> str:
+    return "(" + ", ".join(f"{float(c):.4f}" for c in v) + ")"
+
+
+def _feed_mm_min(seg) -> float | None:
+    from ncsim.units import mm_s_to_mm_min
+    return None if seg.rapid else mm_s_to_mm_min(seg.feed_mm_s)
+
+
+def _flags(seg) -> list[str]:
+    from ncsim.path import ACCEL_MODE_NAMES
+    flags = ["G0" if seg.rapid else "feed", f"G{seg.cp_mode}", f"G{seg.stop_window}",
+             ACCEL_MODE_NAMES[seg.accel_mode]]
+    if seg.exact_stop:
+        flags.append("exact_stop")
+    if seg.cp_mode == 641 or seg.adis_mm:
+        flags.append(f"adis={seg.adis_mm:g}")
+    if seg.ffw:
+        flags.append("FFWON")
+    if seg.stop_before:
+        flags.append("stop_before")
+    if seg.dwell_before_s:
+        flags.append(f"dwell_before={seg.dwell_before_s:g}s")
+    return flags
+
+
+def _segment_text(seg) -> str:
+    """One output line per segment: index, source line, kind, geometry, length, feed, flags."""
+    feed = _feed_mm_min(seg)
+    kind = "arc" if seg.is_arc else "line"
+    text = (f"{seg.index:>7} {seg.file}:{seg.line:<6} {kind:<4} {_xyz(seg.start_mm)} -> "
+            f"{_xyz(seg.end_mm)}")
+    if seg.is_arc:
+        text += (f" centre={_xyz(seg.center_mm)} radius_mm={seg.radius_mm:.4f} "
+                 f"sweep_deg={math.degrees(seg.sweep_rad):.3f} normal={_xyz(seg.normal)}")
+        if seg.helix_mm:
+            text += f" helix_mm={seg.helix_mm:.4f}"
+    text += f" length_mm={seg.length_mm:.4f} feed_mm_min={'rapid' if feed is None else f'{feed:g}'}"
+    return text + " " + " ".join(_flags(seg))
+
+
+def _segment_dict(seg) -> dict:
+    out = {"index": seg.index, "file": seg.file, "line": seg.line,
+           "kind": "arc" if seg.is_arc else "line",
+           "start_mm": [float(c) for c in seg.start_mm], "end_mm": [float(c) for c in seg.end_mm],
+           "length_mm": seg.length_mm, "feed_mm_min": _feed_mm_min(seg), "rapid": seg.rapid,
+           "exact_stop": seg.exact_stop, "stop_window": seg.stop_window, "cp_mode": seg.cp_mode,
+           "adis_mm": seg.adis_mm, "accel_mode": seg.accel_mode, "ffw": seg.ffw,
+           "stop_before": seg.stop_before, "dwell_before_s": seg.dwell_before_s}
+    if seg.is_arc:
+        out.update(center_mm=[float(c) for c in seg.center_mm], radius_mm=seg.radius_mm,
+                   normal=[float(c) for c in seg.normal], sweep_rad=seg.sweep_rad,
+                   helix_mm=seg.helix_mm)
+    return out
+
+
+def _summary_dict(result) -> dict:
+    path = result.path
+    arcs = int((path.kind == 1).sum())
+    return {"segments": path.n, "lines": path.n - arcs, "arcs": arcs,
+            "total_length_mm": path.total_length_mm, "end_dwell_s": path.end_dwell_s,
+            "blocks_executed": result.blocks_executed, "warnings": len(result.warnings)}
+
+
+# ---------------------------------------------------------------------------------------------
+# Shared options
+# ---------------------------------------------------------------------------------------------
+
+#: ModelOptions fields that a --no-... flag switches off, with their help.
+MODEL_FLAGS = (
+    ("ncu_path_jerk", "the NCU path-jerk set point V_Jtcurv (eq. 10-11)"),
+    ("axis_jerk_setpoint", "the axis-jerk set point V_Jt at alpha_c (eq. 4/9)"),
+    ("transition_crossing", "the curvature-jump crossing feed V_fr (eq. 13/15)"),
+    ("cycle_time_limit", "the one-block-per-IPO-cycle limit V_tcy (eq. 6)"),
+    ("jerk_limited_ramps", "jerk-limited ramps (phases A/C become acceleration-limited)"),
+    ("lookahead", "the finite look-ahead (stop at the end of the prepared blocks)"),
+)
+ACCEL_MODES = ("soft", "brisk", "drive")
+
+
+def machine_option(required: bool = True):
+    return click.option("--machine", "-m", "machine_name", required=required, metavar="MACHINE",
+                        help="Machine: a TOML file or the name of a bundled machine "
+                             "(`ncsim machines`), e.g. mikron.")
+
+
+def simulation_options(func):
+    """PROGRAM-independent options of every command that simulates: --setup and the model."""
+    for field, what in reversed(MODEL_FLAGS):
+        flag = "--no-" + field.replace("_", "-")
+        func = click.option(flag, f"no_{field}", is_flag=True, help=f"Switch off {what}.")(func)
+    func = click.option("--accel-mode", type=click.Choice(ACCEL_MODES, case_sensitive=False),
+                        default=None, help="Force SOFT, BRISK or DRIVE on every block.")(func)
+    func = click.option("--setup", "setup_file", default=None, type=click.Path(dir_okay=False),
+                        help="Setup TOML with [work_offsets] G54 = [x, y, z] "
+                             "(overrides the machine's).")(func)
+    return func
+
+
+def model_options(params: dict):
+    """The ModelOptions of the --no-... and --accel-mode flags (popped from ``params``)."""
+    from ncsim.motion import ModelOptions
+    from ncsim.path import BRISK, DRIVE, SOFT
+    off = {field: False for field, _ in MODEL_FLAGS if params.pop(f"no_{field}", False)}
+    mode = params.pop("accel_mode", None)
+    if mode is not None:
+        off["accel_mode"] = {"soft": SOFT, "brisk": BRISK, "drive": DRIVE}[mode.lower()]
+    return ModelOptions(**off)
+
+
+class Progress:
+    """Stage-by-stage progress on stderr, drawn only on a terminal (silent in logs and CI).
+
+    While a stage runs, a daemon thread redraws the line every ``TICK_S`` so that the elapsed
+    time moves on long stages (interpreting a million blocks takes seconds)."""
+
+    WIDTH = 24
+    TICK_S = 0.25
+
+    def __init__(self, stages: list[str], stream=None, enabled: bool | None = None):
+        self.stream = stream if stream is not None else sys.stderr
+        if enabled is None:
+            isatty = getattr(self.stream, "isatty", None)
+            enabled = bool(isatty and isatty())
+        self.enabled = enabled
+        self.stages = list(stages)
+        self.done_count = 0
+        self.current = ""
+        self.t0 = time.perf_counter()
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._ticker: threading.Thread | None = None
+
+    def _draw(self) -> None:
+        n = len(self.stages)
+        filled = self.WIDTH * self.done_count // max(n, 1)
+        bar = "#" * filled + "-" * (self.WIDTH - filled)
+        self.stream.write(f"\r\033[Kncsim [{bar}] {min(self.done_count + 1, n)}/{n} {self.current} "
+                          f"({time.perf_counter() - self.t0:.1f} s)")
+        self.stream.flush()
+
+    def _tick(self) -> None:
+        while not self._stop.wait(self.TICK_S):
+            with self._lock:
+                if not self._stop.is_set():
+                    self._draw()
+
+    @contextmanager
+    def stage(self, name: str):
+        if self.enabled:
+            with self._lock:
+                self.current = name
+                self._draw()
+            if self._ticker is None:
+                self._ticker = threading.Thread(target=self._tick, name="ncsim-progress", daemon=True)
+                self._ticker.start()
+        try:
+            yield
+        finally:
+            self.done_count += 1
+
+    def close(self) -> None:
+        if self.enabled:
+            self._stop.set()
+            if self._ticker is not None:
+                self._ticker.join()
+            self.stream.write("\r\033[K")
+            self.stream.flush()
+
+
+def _simulate(program: str, machine_name: str, setup_file, options, progress: Progress):
+    """interpret -> limits + plan (as ``simulate.simulate``), one progress stage each."""
+    from dataclasses import replace
+
+    from ncsim.nc.frames import read_setup_offsets
+    from ncsim.nc.interpret import interpret_file
+    from ncsim.machine import load_machine
+    from ncsim.simulate import simulate_path
+
+    machine = load_machine(machine_name)
+    offsets = read_setup_offsets(setup_file) if setup_file else None
+    with progress.stage("interpret"):
+        t0 = time.perf_counter()
+        result = interpret_file(program, machine, setup_offsets=offsets)
+        interpret_s = time.perf_counter() - t0
+    with progress.stage("plan"):
+        planned = simulate_path(result.path, machine, options, program=program)
+    return replace(planned, interpreted=result,
+                   stage_time_s={"interpret_s": interpret_s, **planned.stage_time_s})
+
+
+def _echo_warnings(sim) -> None:
+    for warning in sim.warnings:
+        click.echo(warning.render(), err=True)
+
+
+# ---------------------------------------------------------------------------------------------
+# run
+# ---------------------------------------------------------------------------------------------
+
+@cli.command("run")
+@click.argument("program", type=click.Path(dir_okay=False))
+@machine_option()
+@simulation_options
+@click.option("--json", "as_json", is_flag=True,
+              help="Print the JSON summary (README 'JSON summary') instead of text.")
+@click.option("--top", type=click.IntRange(min=0), default=10, show_default=True,
+              help="Blocks listed as losing the most time.")
+@click.option("--trace", "trace_file", type=click.Path(dir_okay=False), default=None,
+              help="Write the sampled trace to this CSV file (README 'CSV trace').")
+@click.option("--dt", "dt_s", type=click.FloatRange(min=0, min_open=True), default=None,
+              metavar="SECONDS", help="Trace sampling period [default: the IPO cycle].")
+@click.option("--trace-columns", default="default", show_default=True,
+              help="Trace columns: 'default', 'all' or a comma-separated list.")
+@click.option("--crosscheck", is_flag=True,
+              help="Compare every block with ruckig's time-optimal motion (slower).")
+def run_cmd(program, machine_name, as_json, top, trace_file, dt_s, trace_columns, crosscheck,
+            **params):
+    """Simulate PROGRAM on MACHINE: cycle time, programmed against reached feed, and the
+    blocks that lose the most time with their line and the limit that holds them."""
+    from ncsim.report import summary as report
+
+    options = model_options(params)
+    if not trace_file and (dt_s is not None or trace_columns != "default"):
+        raise UsageError("--dt and --trace-columns apply to the trace: add --trace FILE.csv")
+    stages = ["interpret", "plan"] + ["cross-check"] * crosscheck + ["summary"]
+    if trace_file:
+        stages += ["sample", "write CSV"]
+    progress = Progress(stages)
+    try:
+        sim = _simulate(program, machine_name, params["setup_file"], options, progress)
+        check = None
+        if crosscheck:
+            from ncsim.plan.crosscheck import crosscheck as run_crosscheck
+            with progress.stage("cross-check"):
+                check = run_crosscheck(sim.motion).summary()
+        with progress.stage("summary"):
+            summary = report.summary(sim, top=top, include_blocks=as_json)
+            if check is not None:
+                summary["crosscheck"] = check
+        rows = None
+        if trace_file:
+            from ncsim.report.csvio import write_trace_csv
+            from ncsim.plan.sample import sample_motion
+            with progress.stage("sample"):
+                trace = sample_motion(sim.motion, dt_s)
+            with progress.stage("write CSV"):
+                columns = None if trace_columns == "default" else trace_columns
+                rows = write_trace_csv(trace, trace_file, columns=columns)
+    finally:
+        progress.close()
+    _echo_warnings(sim)
+    if as_json:
+        click.echo(summary_json(summary))
+        return
+    click.echo(report.format_text(summary), nl=False)
+    if check is not None:
+        click.echo(_crosscheck_text(check))
+    if rows is not None:
+        dt = sim.machine.ncu.ipo_cycle_s if dt_s is None else dt_s
+        click.echo(f"\ntrace       {rows} samples every {dt * 1000:g} ms written to {trace_file}")
+
+
+def summary_json(summary: dict) -> str:
+    """The summary as indented JSON, with one compact line per block of ``blocks_detail``
+    (an indented dump goes through Python's slow encoder: 3x the time on 100k blocks)."""
+    blocks = summary.get("blocks_detail")
+    head = {k: v for k, v in summary.items() if k != "blocks_detail"}
+    text = json.dumps(head, indent=1)
+    if blocks is None:
+        return text
+    encode = json.JSONEncoder().encode
+    rows = ",\n  ".join(encode(b) for b in blocks)
+    body = f"[\n  {rows}\n ]" if blocks else "[]"
+    return f'{text[:-2]},\n "blocks_detail": {body}\n}}'
+
+
+def _crosscheck_text(c: dict) -> str:
+    worst = ("-" if c["worst_ratio"] is None
+             else f"{c['worst_ratio']:.3f} (block {c['worst_block']}, line {c['worst_line']})")
+    return (f"\ncross-check against ruckig's time-optimal motion ({c['blocks_checked']} blocks)\n"
+            f"  time ncsim {c['ncsim_time_s']:.3f} s, optimum {c['optimal_time_s']:.3f} s, "
+            f"slower by {c['slower_time_s']:.3f} s\n"
+            f"  worst ratio ncsim/ruckig {worst}\n"
+            f"  limit violations {c['violations']}, faster than the optimum "
+            f"{c['faster_than_optimum']}, ruckig failed {c['ruckig_failed']}")
+
+
+# ---------------------------------------------------------------------------------------------
+# plot
+# ---------------------------------------------------------------------------------------------
+
+@cli.command("plot")
+@click.argument("program", type=click.Path(dir_okay=False), required=False)
+@machine_option(required=False)
+@simulation_options
+@click.option("--trace", "trace_file", type=click.Path(dir_okay=False), default=None,
+              help="Plot a trace saved by `ncsim run --trace` instead of simulating.")
+@click.option("--output", "-o", "output", type=click.Path(dir_okay=False), required=True,
+              help="Figure file: .png, .svg or .pdf.")
+@click.option("--dt", "dt_s", type=click.FloatRange(min=0, min_open=True), default=None,
+              metavar="SECONDS",
+              help="Sampling period [default: cycle time / 20000, at most the IPO cycle; "
+                   "traces over 200,000 samples are thinned for drawing].")
+@click.option("--title", default=None, help="Figure title [default: program and machine].")
+def plot_cmd(program, machine_name, trace_file, output, dt_s, title, **params):
+    """Plot a run: feed against time and along the path (shaded by the limit holding it),
+    the XY path coloured by feed, acceleration and jerk.
+
+    Either PROGRAM with --machine, or --trace FILE.csv (fewer panels if the CSV lacks columns).
+    """
+    from ncsim.motion import FULL_MODEL
+    from ncsim.report.plot import check_figure_file
+
+    options = model_options(params)
+    check_figure_file(output)
+    if (program is None) == (trace_file is None):
+        raise UsageError("give either a PROGRAM (with --machine) or --trace FILE.csv")
+    motion = machine = None
+    if trace_file and (params["setup_file"] or options != FULL_MODEL or dt_s is not None):
+        raise UsageError("--setup, --dt and the model switches apply to a PROGRAM, not to --trace")
+    if trace_file:
+        from ncsim.report.csvio import read_trace_csv, trace_from_columns
+        from ncsim.machine import load_machine
+        trace = trace_from_columns(read_trace_csv(trace_file))
+        machine = load_machine(machine_name) if machine_name else None
+        head = title or os.path.basename(trace_file) + (f" on {machine.name}" if machine else "")
+    else:
+        if not machine_name:
+            raise UsageError("--machine is required with a PROGRAM (e.g. --machine mikron)")
+        progress = Progress(["interpret", "plan", "sample", "draw"])
+        try:
+            sim = _simulate(program, machine_name, params["setup_file"], options, progress)
+            from ncsim.plan.sample import sample_motion
+            with progress.stage("sample"):
+                trace = sample_motion(sim.motion, dt_s if dt_s else _plot_dt_s(sim))
+        finally:
+            progress.close()
+        _echo_warnings(sim)
+        motion, machine = sim.motion, sim.machine
+        head = title or f"{os.path.basename(program)} on {machine.name}"
+    from ncsim.report.plot import run_figure, save_figure
+    result = run_figure(trace, motion=motion, machine=machine, title=head)
+    save_figure(result.figure, output)
+    click.echo(f"wrote {output}: panels {', '.join(result.panels)}")
+    if result.missing:
+        click.echo("note: left out " + "; ".join(f"{p} (needs {need})" for p, need in result.missing.items())
+                   + " -- write the trace with `ncsim run --trace FILE --trace-columns all`", err=True)
+
+
+PLOT_SAMPLES = 20_000
+
+
+def _plot_dt_s(sim) -> float:
+    """Fine enough to show each jerk phase on short programs (~20,000 samples), and never
+    coarser than the IPO cycle (``plot.run_figure`` thins very long traces for drawing)."""
+    ipo = sim.machine.ncu.ipo_cycle_s
+    total = sim.cycle_time_s
+    return min(ipo, total / PLOT_SAMPLES) if total > 0 else ipo
+
+
+# ---------------------------------------------------------------------------------------------
+# check
+# ---------------------------------------------------------------------------------------------
+
+@cli.command("check")
+@click.argument("program", type=click.Path(dir_okay=False))
+@machine_option()
+@simulation_options
+@click.option("--max-time", "max_time_s", type=click.FloatRange(min=0, min_open=True), default=None,
+              metavar="SECONDS", help="Fail if the cycle time is longer.")
+@click.option("--min-feed-ratio", type=click.FloatRange(0, 1), default=None, metavar="R",
+              help="Fail if feed_efficiency (ideal time at the programmed feed / real time) is lower.")
+@click.option("--max-limited-fraction", type=click.FloatRange(0, 1), default=None, metavar="F",
+              help="Fail if a larger share of feed-move time is held below the programmed feed.")
+@click.option("--baseline", "baseline_file", type=click.Path(dir_okay=False), default=None,
+              help="A summary saved with `ncsim run --json` to compare the cycle time with.")
+@click.option("--max-regression", "max_regression_pct", type=click.FloatRange(min=0), default=None,
+              metavar="PERCENT", help="Fail if the cycle time grew by more than this against --baseline.")
+@click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
+def check_cmd(program, machine_name, max_time_s, min_feed_ratio, max_limited_fraction,
+              baseline_file, max_regression_pct, as_json, **params):
+    """Check PROGRAM against thresholds, for CI: exit 0 when all hold, 1 when one fails
+    (with the blocks to look at), 2 on bad input."""
+    from ncsim.report import summary as report
+    from ncsim.report.check import evaluate, load_baseline, require_thresholds
+
+    options = model_options(params)
+    require_thresholds(max_time_s, min_feed_ratio, max_limited_fraction, baseline_file,
+                       max_regression_pct)
+    baseline = load_baseline(baseline_file) if baseline_file else None
+    thresholds = dict(max_time_s=max_time_s, min_feed_ratio=min_feed_ratio,
+                      max_limited_fraction=max_limited_fraction, baseline=baseline,
+                      max_regression_pct=max_regression_pct, baseline_name=baseline_file or "")
+    progress = Progress(["interpret", "plan", "summary"])
+    try:
+        sim = _simulate(program, machine_name, params["setup_file"], options, progress)
+        with progress.stage("summary"):
+            per_block = baseline is not None and "blocks_detail" in baseline
+            summary = report.summary(sim, top=5, include_blocks=per_block)
+    finally:
+        progress.close()
+    _echo_warnings(sim)
+    results = evaluate(summary, **thresholds)
+    failed = [r for r in results if not r.ok]
+    if as_json:
+        click.echo(json.dumps({"program": program, "machine": sim.machine.name,
+                               "ok": not failed, "checks": [r.as_dict() for r in results]}, indent=1))
+    else:
+        click.echo(f"{program} on {sim.machine.name}: cycle time {summary['cycle_time_s']:.3f} s")
+        for r in results:
+            click.echo(r.render())
+        click.echo(f"{len(failed)} of {len(results)} checks failed" if failed
+                   else f"all {len(results)} checks passed")
+    if failed:
+        sys.exit(int(ExitStatus.CHECK_FAILED))
+
+
+# ---------------------------------------------------------------------------------------------
+# machines, explain
+# ---------------------------------------------------------------------------------------------
+
+@cli.command("machines")
+def machines_cmd() -> None:
+    """List the bundled machines (use the name with --machine)."""
+    from ncsim.machine import bundled_machines
+    machines = bundled_machines()
+    width = max([len(n) for n in machines] + [4])
+    for name, description in machines.items():
+        click.echo(f"{name:<{width}}  {description}")
+
+
+@cli.command("explain")
+@machine_option()
+@click.option("--radius-mm", "radii_mm", type=click.FloatRange(min=0, min_open=True), multiple=True,
+              help="Arc radius of a table row (repeatable) [default: 1 2.5 5 10 20 30 50 100].")
+@click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
+              help="Also draw the limits against the radius (.png, .svg, .pdf).")
+@click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
+def explain_cmd(machine_name, radii_mm, plot_file, as_json) -> None:
+    """Show MACHINE's axis limits, NCU settings and the steady feed each limit allows on an
+    XY circle of radius R (paper eq. 2-11), with the limit that binds."""
+    from ncsim.report.explain import DEFAULT_RADII_MM, direction_extremes, radius_table
+    from ncsim.machine import load_machine
+
+    if plot_file:
+        from ncsim.report.plot import check_figure_file
+        check_figure_file(plot_file)
+    machine = load_machine(machine_name)
+    radii = sorted(set(radii_mm)) if radii_mm else list(DEFAULT_RADII_MM)
+    rows = radius_table(machine, radii)
+    if as_json:
+        click.echo(json.dumps({"machine": machine.name, "units": "m/min",
+                               "radii": [r.as_dict() for r in rows]}, indent=1))
+    else:
+        click.echo(_explain_text(machine, direction_extremes(machine), rows))
+    if plot_file:
+        import numpy as np
+
+        from ncsim.report.plot import explain_figure, save_figure
+        lo, hi = min(radii), max(radii)
+        dense = np.geomspace(lo, hi, 80) if hi > lo else np.array([lo])
+        save_figure(explain_figure(radius_table(machine, dense), machine.name), plot_file)
+        if not as_json:
+            click.echo(f"\nwrote {plot_file}")
+
+
+def _explain_text(machine, ext, rows) -> str:
+    from ncsim.units import mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min, s_to_ms
+    n = machine.ncu
+    out = [f"machine  {machine.name}: {machine.description}", f"file     {machine.source}", "",
+           "axes   V_max m/min  A_max m/s^2  J_max m/s^3  Kv 1/s",
+           "       (MD32000)    (MD32300)    (MD32431)    (MD32200)"]
+    for a in machine.axes:
+        kv = "-" if a.position_gain_1_s is None else f"{a.position_gain_1_s:g}"
+        out.append(f"  {a.name}    {mm_s_to_m_min(a.max_velocity_mm_s):9.3g}  "
+                   f"{mm_s2_to_m_s2(a.max_accel_mm_s2):11.3g}  {mm_s3_to_m_s3(a.max_jerk_mm_s3):11.3g}  {kv:>9}")
+    out += ["", "NCU",
+            f"  interpolation cycle t_cy           {s_to_ms(n.ipo_cycle_s):g} ms",
+            f"  curvilinear jerk J_curv            {mm_s3_to_m_s3(n.curvilinear_jerk_mm_s3):g} m/s^3",
+            f"  tangential / central share         r_jct {n.tangential_jerk_share:g}, r_jcc {n.central_jerk_share:g}",
+            f"  tangential path jerk J_tcurv       {mm_s3_to_m_s3(n.tangential_jerk_mm_s3):g} m/s^3"
+            f"   (eq. 10: J_curv x r_jct)",
+            f"  transition time dt (eq. 13)        {s_to_ms(n.transition_time_s):g} ms",
+            f"  look-ahead                         {n.lookahead_blocks} blocks",
+            f"  normal acceleration share          {n.normal_accel_share:g}",
+            f"  G64 corner velocity jump factor    {n.corner_velocity_jump_factor:g}",
+            f"  exact-stop settle G601 / G602      {s_to_ms(n.exact_stop_fine_settle_s):g} / "
+            f"{s_to_ms(n.exact_stop_coarse_settle_s):g} ms",
+            "", "over the tangent direction in XY",
+            f"  J_t (eq. 9)   {mm_s3_to_m_s3(ext['jerk_t_mm_s3'][0]):.3g} .. "
+            f"{mm_s3_to_m_s3(ext['jerk_t_mm_s3'][1]):.3g} m/s^3",
+            f"  A_n (eq. 8)   {mm_s2_to_m_s2(ext['accel_n_mm_s2'][0]):.3g} .. "
+            f"{mm_s2_to_m_s2(ext['accel_n_mm_s2'][1]):.3g} m/s^2",
+            f"  V_t (eq. 7)   {mm_s_to_m_min(ext['velocity_t_mm_s'][0]):.3g} .. "
+            f"{mm_s_to_m_min(ext['velocity_t_mm_s'][1]):.3g} m/min",
+            "", "steady feed (m/min) each limit allows on an XY circle of radius R; set point: what",
+            "ncsim plans for a full circle from rest without F limit (eq. 12), and the limit that binds",
+            f"  {'R mm':>6} {'V_Jtcurv':>8} {'V_Jt':>13} {'V_An':>13} {'V_t':>13} {'V_tcy':>8} "
+            f"{'V_fr':>6} {'set pt':>7}  binds",
+            f"  {'':>6} {'eq. 11':>8} {'eq. 4/9':>13} {'eq. 2/8':>13} {'eq. 7':>13} {'eq. 6':>8} "
+            f"{'eq. 13':>6} {'eq. 12':>7}"]
+    for r in rows:
+        span = lambda lo, hi: f"{lo:.2f}..{hi:.2f}"  # noqa: E731
+        out.append(f"  {r.radius_mm:6g} {r.v_jtcurv_m_min:8.2f} {span(r.v_jt_min_m_min, r.v_jt_max_m_min):>13} "
+                   f"{span(r.v_an_min_m_min, r.v_an_max_m_min):>13} {span(r.v_t_min_m_min, r.v_t_max_m_min):>13} "
+                   f"{r.v_tcy_m_min:8.1f} {r.v_fr_line_m_min:6.2f} {r.setpoint_m_min:7.2f}  {r.binding}")
+    out.append("  (V_Jt, V_An, V_t: min..max over the direction; V_tcy: one full circle per block; "
+               "V_fr: a line entering the arc, weakest tangent)")
+    return "\n".join(out)
+
+
+# ---------------------------------------------------------------------------------------------
+# Commands written in their own modules
+# ---------------------------------------------------------------------------------------------
+
+from ncsim.cli.batch import batch  # noqa: E402  (after `cli`, which it does not need)
+
+cli.add_command(batch)
+
+try:  # `ncsim gap`, the sim-to-real gap diagnosis, when this checkout has it
+    from ncsim.cli.gap import gap  # noqa: E402
+except ModuleNotFoundError as exc:  # pragma: no cover - only the module itself may be missing
+    if exc.name != f"{__package__}.cli_gap":
+        raise
+else:
+    cli.add_command(gap)
+
+
+def main() -> None:
+    try:
+        cli.main(prog_name="ncsim", standalone_mode=True)
+    except KeyboardInterrupt:  # pragma: no cover - interactive only
+        click.echo("interrupted", err=True)
+        sys.exit(130)

@@ -1,0 +1,774 @@
+"""Sim-to-real gap diagnosis: where the simulation departs from a measured trace, which
+unmodelled effect causes it, and how much of the gap closes once that effect is added.
+
+Pipeline (:func:`diagnose`):
+
+1. **Base model** (``effects.make_base``): e.g. ``full`` or ``axis-only``; its *model trace* is
+   the planned motion sampled on a uniform grid (``MODEL_DT_S``, 2 ms; held at rest for
+   ``SETTLE_S`` after the end so that lagging axes can settle) and passed through the model's
+   trace effects (servo, structure).
+2. **Alignment** (``ncsim.align``): the measured samples are put on the model's clock and
+   zero and mapped to their place on the model path.
+3. **Gap metrics** (:class:`GapMetrics`), over the aligned samples inside the model's span:
+
+   * ``feed_rms_mm_s``: RMS of measured minus model path speed at the same place. Both speeds
+     go through the same central difference over about ``SPEED_WINDOW_S`` (the measured one is
+     derived from positions), so the operator's own bias cancels;
+   * ``time_rms_ms``: RMS of the time error at the place (measured time minus model time at
+     the same path length), counted from its median: a constant is only another clock offset
+     (the alignment's freedom, e.g. a pure servo delay), while a feed law that differs makes it
+     grow along the path;
+   * ``cycle_time_error_s``: measured minus model time from the start of the motion to its end;
+   * ``contour_rms_um``: RMS distance from each measured sample to the model path (the contour
+     error; on arcs it is the radial deviation);
+   * ``gap``: the combined, dimensionless gap on which effects of every kind are ranked::
+
+         gap^2 = mean(feed_err^2) / s_v^2 + mean(time_err^2) / s_t^2 + mean(dist^2) / s_d^2
+
+     with resolution scales from the measured trace (:func:`gap_scales`): ``s_d`` = twice the
+     position noise (at least ``MIN_CONTOUR_SCALE_UM``), ``s_v`` = twice the noise of the derived
+     speed plus 0.2 % of the top feed, ``s_t`` = ``TIME_SCALE_S``. It is a chi-square-like sum:
+     a group of residuals at the noise level contributes about 1/4.
+4. **Localisation** (:func:`localise`): the gap per block (feed, time and contour error), per
+   phase (A, B, C, standstill, transition) and, on arcs, per angular position (mean radial
+   deviation of the measurement and of the model, feed error and time error in 30 degree
+   sectors about the arc's centre; ISO 230-4 G, Fmax, Fmin on full circles, measured against
+   model).
+5. **Attribution**: every candidate effect is added to the base (or, if the base already has
+   it, its parameters are re-fitted) and fitted by minimising ``gap^2`` (:func:`fit_effect`,
+   :func:`fit_values`): for a float a grid (log-spaced where the parameter is), then around
+   each of its two best local minima a finer grid between the neighbours (a limit that stops
+   binding beyond some value leaves a plateau next to a narrow valley) and bounded Brent; for an integer a geometric scan then
+   golden-section on the integers; every value of a discrete parameter; and a Nelder-Mead
+   polish when two floats are free together. Effects are ranked by
+   ``shrink_percent = 100 (1 - gap_after / gap_before)``; then a combined model adds the ranked
+   effects greedily while each still shrinks the gap by ``COMBINE_MIN_GAIN``.
+
+   Measured samples in motion that fall outside the model's span (a model that ends too early,
+   or a failed alignment) count with the time outside the model's motion as time error and
+   their speed as feed error, so no model gains by leaving samples unmatched.
+
+Everything here works on an interpreted :class:`~ncsim.path.Path`; planning is cached per
+(machine, options), so trace effects cost one filter and one alignment per evaluation.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+from typing import Iterable, Mapping, Sequence
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from ncsim.gap.align import AlignPhase, Alignment, align, estimate_noise_mm
+from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, TRACE_EFFECTS, Model, _jsonable,
+                      apply_trace_effects, corrected_machine, get_effect, make_base,
+                      model_description)
+from ncsim.errors import UsageError
+from ncsim.gap.iso230 import circular_deviation, deviation_profile, radial_deviation_um
+from ncsim.plan.limits import path_limits
+from ncsim.machine import MachineSpec
+from ncsim.gap.measured import MeasuredTrace, derived_speed_mm_s
+from ncsim.path import ARC, Path
+from ncsim.plan.lookahead import plan
+from ncsim.plan.sample import sample_motion
+
+MODEL_DT_S = 2e-3            # model trace grid (chord error a dt^2/8: 0.5 um at 1 m/s^2)
+SETTLE_S = 0.5               # model held at rest after the end (lagging axes settle)
+SPEED_WINDOW_S = 0.02        # central-difference window of derived speeds
+TIME_SCALE_S = 2e-3          # s_t
+MIN_CONTOUR_SCALE_UM = 1.0   # lower bound of s_d
+FEED_SCALE_SHARE = 0.002     # s_v includes 0.2 % of the top measured feed
+MOVING_SHARE = 0.02          # "moving": feed above 2 % of the top feed
+COMBINE_MIN_GAIN = 0.05      # combined model: an effect must shrink the gap by 5 % more
+N_GRID = 7                   # float parameters: log-spaced grid points before Brent
+MAX_STARTS = 2               # float parameters: local minima of the grid refined
+INT_GRID = (1, 2, 3, 4, 5, 6, 7, 8, 10, 12, 14, 16, 20, 24, 32, 48, 64, 96, 128)
+
+
+# ---------------------------------------------------------------------------------------------
+# Model traces
+# ---------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class ModelTrace:
+    """A model's predicted positions on a uniform grid, with the planner's labels."""
+
+    t_s: np.ndarray          # (n,) uniform grid from 0
+    pos_mm: np.ndarray       # (n, 3) set point after the model's trace effects
+    s_mm: np.ndarray         # (n,) path length of the set point (non-decreasing)
+    block: np.ndarray        # (n,) block of the set point
+    phase: np.ndarray        # (n,) motion.Phase of the set point
+    feed_mm_s: np.ndarray    # (n,) speed of pos_mm
+    setpoint: object         # the planner's ncsim.trace.Trace on the same grid
+    cycle_time_s: float      # end of the planned motion
+    compare_speed_mm_s: np.ndarray | None = None  # speed through the measured's operator
+
+
+class ModelCache:
+    """Plans and samples a path under models, re-planning only when the planner's inputs
+    (machine, options) change."""
+
+    def __init__(self, path: Path, dt_s: float = MODEL_DT_S, settle_s: float = SETTLE_S,
+                 max_plans: int = 64):
+        self.path = path
+        self.dt_s = dt_s
+        self.settle_s = settle_s
+        self._plans: dict = {}
+        self._limits: dict = {}
+        self.max_plans = max_plans
+        self.n_plans = 0
+
+    def limits(self, model: Model):
+        """Stage 1 of the planner (``limits.path_limits``), shared by models that differ only in
+        the look-ahead, which the limits do not depend on."""
+        key = (model.machine.with_ncu(lookahead_blocks=1), replace(model.options, lookahead=True))
+        hit = self._limits.get(key)
+        if hit is None:
+            hit = path_limits(self.path, model.machine, model.options)
+            if len(self._limits) >= self.max_plans:
+                self._limits.pop(next(iter(self._limits)))
+            self._limits[key] = hit
+        return hit
+
+    def setpoint(self, model: Model):
+        """``(t_s, Trace, cycle_time_s, Motion)`` of the model's set point on the grid."""
+        key = model.planner_key
+        hit = self._plans.get(key)
+        if hit is not None:
+            return hit
+        motion = plan(self.path, model.machine, model.options, limits=self.limits(model))
+        total = motion.total_time_s
+        n = int(math.ceil((total + self.settle_s) / self.dt_s)) + 1
+        t = np.arange(n) * self.dt_s
+        tr = sample_motion(motion, t_s=np.minimum(t, total))
+        if len(self._plans) >= self.max_plans:
+            self._plans.pop(next(iter(self._plans)))
+        self._plans[key] = (t, tr, total, motion)
+        self.n_plans += 1
+        return self._plans[key]
+
+    def trace(self, model: Model) -> ModelTrace:
+        t, tr, total, _ = self.setpoint(model)
+        pos = tr.pos_mm
+        if model.post:
+            pos = apply_trace_effects(model, tr, t, pos)
+            feed = np.linalg.norm(np.gradient(pos, t, axis=0), axis=1)
+        else:
+            feed = tr.feed_mm_s
+        return ModelTrace(t_s=t, pos_mm=pos, s_mm=tr.s_mm, block=tr.block, phase=tr.phase,
+                          feed_mm_s=feed, setpoint=tr, cycle_time_s=total)
+
+    def motion(self, model: Model):
+        return self.setpoint(model)[3]
+
+
+# ---------------------------------------------------------------------------------------------
+# Gap metrics
+# ---------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class GapScales:
+    """Resolution scales of the combined gap (module docstring, step 3)."""
+
+    feed_mm_s: float
+    time_s: float
+    contour_mm: float
+    noise_mm: float
+    speed_window_s: float
+
+
+def gap_scales(measured: MeasuredTrace, speed_window_s: float = SPEED_WINDOW_S) -> GapScales:
+    """Scales from the measured trace alone (so every model is judged on the same scale):
+    position noise from the standstill scatter (``align.estimate_noise_mm``); a central
+    difference over ``W`` turns it into a speed noise of ``sqrt(2) noise / W``."""
+    period = measured.period_s if len(measured) > 1 else 1e-3
+    k = max(1, int(round(0.5 * speed_window_s / period)))
+    width = 2 * k * period
+    speed = measured.speed_mm_s(width)
+    top = float(np.max(speed)) if len(speed) else 0.0
+    noise = estimate_noise_mm(measured.pos_mm, speed, max(MOVING_SHARE * top, 1e-6))
+    speed_noise = math.sqrt(2.0) * noise / width
+    return GapScales(feed_mm_s=max(2.0 * speed_noise + FEED_SCALE_SHARE * top, 1e-3),
+                     time_s=TIME_SCALE_S,
+                     contour_mm=max(2.0 * noise, MIN_CONTOUR_SCALE_UM * 1e-3),
+                     noise_mm=noise, speed_window_s=width)
+
+
+@dataclass(frozen=True)
+class GapMetrics:
+    """The gap between a measured trace and a model (module docstring, step 3)."""
+
+    gap: float
+    feed_rms_mm_s: float
+    time_rms_ms: float
+    cycle_time_error_s: float
+    contour_rms_um: float
+    contour_max_um: float
+    n_samples: int
+    parts: Mapping[str, float] = field(default_factory=dict)  # normalised squared contributions
+    n_unmatched: int = 0         # measured samples in motion outside the model's span
+
+    def metric_values(self) -> dict:
+        return {k: getattr(self, k) for k in METRIC_NAMES}
+
+    def as_dict(self) -> dict:
+        return {"gap": self.gap, "feed_rms_mm_s": self.feed_rms_mm_s,
+                "time_rms_ms": self.time_rms_ms, "cycle_time_error_s": self.cycle_time_error_s,
+                "contour_rms_um": self.contour_rms_um, "contour_max_um": self.contour_max_um,
+                "n_samples": self.n_samples, "n_unmatched": self.n_unmatched,
+                "parts": dict(self.parts)}
+
+
+METRIC_NAMES = ("gap", "feed_rms_mm_s", "time_rms_ms", "cycle_time_error_s", "contour_rms_um")
+
+
+def _rms(x) -> float:
+    x = np.asarray(x, dtype=np.float64)
+    return float(np.sqrt(np.mean(x * x))) if x.size else 0.0
+
+
+def _end_of_motion_s(t_s, speed, threshold) -> float:
+    moving = np.nonzero(np.asarray(speed) > threshold)[0]
+    return float(t_s[moving[-1]]) if len(moving) else float(t_s[-1])
+
+
+def _compare_speed(mt: ModelTrace, scales: GapScales) -> np.ndarray:
+    if mt.compare_speed_mm_s is not None:
+        return mt.compare_speed_mm_s
+    return derived_speed_mm_s(mt.t_s, mt.pos_mm, scales.speed_window_s)
+
+
+def gap_metrics(al: Alignment, mt: ModelTrace, scales: GapScales) -> GapMetrics:
+    """Gap metrics of an alignment of a measured trace to a model trace."""
+    valid = al.valid
+    top = max(float(np.max(mt.feed_mm_s)), float(np.max(al.feed_mm_s)), 1e-9)
+    thr = MOVING_SHARE * top
+    model_speed = _compare_speed(mt, scales)
+    v_model = np.interp(al.t_sim_s, mt.t_s, model_speed)
+    moving = valid & ((al.feed_mm_s > thr) | (v_model > thr))
+    # measured samples in motion outside the model's span (the model ended or started too
+    # early, or the alignment failed): the model stands still there, so the feed error is the
+    # measured speed and the time error at least the time outside the model's motion
+    t_model_start = float(mt.t_s[np.argmax(model_speed > thr)]) if np.any(model_speed > thr) else 0.0
+    t_model_end = _end_of_motion_s(mt.t_s, model_speed, thr)
+    unmatched = ~valid & (al.feed_mm_s > thr)
+    outside = np.maximum(np.maximum(t_model_start - al.t_s, al.t_s - t_model_end), 0.0)
+    feed_err = np.concatenate([(al.feed_mm_s - v_model)[moving], al.feed_mm_s[unmatched]])
+    # the clock offset is the alignment's own freedom (any constant is a different time
+    # shift): the time error counts from its median, so only its growth along the path is gap
+    te = al.time_error_s[moving]
+    te = te - np.median(te) if te.size else te
+    time_err = np.concatenate([te, outside[unmatched]])
+    dist = al.distance_mm[valid]
+    # cycle time: measured motion end (on the model clock) minus model motion end
+    t_meas_end = _end_of_motion_s(al.t_s, al.feed_mm_s, thr)
+    parts = {"feed": (_rms(feed_err) / scales.feed_mm_s) ** 2,
+             "time": (_rms(time_err) / scales.time_s) ** 2,
+             "contour": (_rms(dist) / scales.contour_mm) ** 2}
+    return GapMetrics(gap=math.sqrt(sum(parts.values())), feed_rms_mm_s=_rms(feed_err),
+                      time_rms_ms=_rms(time_err) * 1e3,
+                      cycle_time_error_s=t_meas_end - t_model_end,
+                      contour_rms_um=_rms(dist) * 1e3,
+                      contour_max_um=float(np.max(dist)) * 1e3 if dist.size else 0.0,
+                      n_samples=int(np.count_nonzero(valid)), parts=parts,
+                      n_unmatched=int(np.count_nonzero(unmatched)))
+
+
+def shrink_percent(before: float, after: float) -> float:
+    """How much of a gap closed: ``100 (1 - |after| / |before|)`` (negative: it grew)."""
+    b, a = abs(before), abs(after)
+    if b <= 0:
+        return 0.0
+    return 100.0 * (1.0 - a / b)
+
+
+# ---------------------------------------------------------------------------------------------
+# Evaluating models against a measured trace
+# ---------------------------------------------------------------------------------------------
+
+class Evaluator:
+    """Gap of models against one measured trace on one path (caches the plans)."""
+
+    def __init__(self, path: Path, measured: MeasuredTrace, *, dt_s: float = MODEL_DT_S,
+                 align_options: Mapping | None = None):
+        if len(measured) < 10:
+            raise UsageError(f"{measured.source}: {len(measured)} samples, need at least 10 "
+                             "to diagnose a gap")
+        self.path = path
+        self.measured = measured
+        self.cache = ModelCache(path, dt_s=dt_s)
+        self.scales = gap_scales(measured)
+        self.align_options = dict(align_options or {})
+        self.derived = measured.feed_mm_s is None and measured.vel_mm_s is None
+        self.measured_speed = (measured.speed_mm_s(self.scales.speed_window_s) if self.derived
+                               else measured.speed_mm_s())
+        self.n_evals = 0
+
+    def model_trace(self, model: Model) -> ModelTrace:
+        """The model trace, with its speed through the same operator as the measured speed."""
+        mt = self.cache.trace(model)
+        speed = (derived_speed_mm_s(mt.t_s, mt.pos_mm, self.scales.speed_window_s)
+                 if self.derived else mt.feed_mm_s)
+        return replace(mt, compare_speed_mm_s=speed)
+
+    def align(self, mt: ModelTrace) -> Alignment:
+        opts = dict(noise_mm=self.scales.noise_mm, speed_smoothing_s=SPEED_WINDOW_S,
+                    measured_speed_mm_s=self.measured_speed)
+        if self.derived:
+            opts["sim_speed_mm_s"] = mt.compare_speed_mm_s
+        opts.update(self.align_options)
+        return align(self.measured, mt.pos_mm, mt.t_s, mt.s_mm, sim_block=mt.block,
+                     sim_phase=mt.phase, sim_feed_mm_s=mt.feed_mm_s, **opts)
+
+    def evaluate(self, model: Model, *, full: bool = False):
+        """``GapMetrics`` of ``model`` (and, with ``full``, the alignment and model trace)."""
+        self.n_evals += 1
+        mt = self.model_trace(model)
+        al = self.align(mt)
+        m = gap_metrics(al, mt, self.scales)
+        return (m, al, mt) if full else m
+
+
+# ---------------------------------------------------------------------------------------------
+# Fitting one effect
+# ---------------------------------------------------------------------------------------------
+
+@dataclass
+class EffectFit:
+    """One candidate effect fitted on top of a base model."""
+
+    effect: str
+    params: dict
+    model: Model
+    gap_before: GapMetrics
+    gap_after: GapMetrics
+    added: bool                 # True: the base lacked the effect; False: re-fitted
+    n_evals: int = 0
+    seconds: float = 0.0
+    effects: tuple[str, ...] = ()   # for a combined model: the effects in it
+
+    @property
+    def shrink_percent(self) -> float:
+        return shrink_percent(self.gap_before.gap, self.gap_after.gap)
+
+    def metric_shrink(self) -> dict:
+        b, a = self.gap_before.metric_values(), self.gap_after.metric_values()
+        return {k: shrink_percent(b[k], a[k]) for k in b if k in a}
+
+    def as_dict(self) -> dict:
+        return {"effect": self.effect, "title": EFFECTS[self.effect].title if self.effect in EFFECTS else "",
+                "added": self.added, "params": _jsonable(self.params),
+                "gap_before": self.gap_before.as_dict(), "gap_after": self.gap_after.as_dict(),
+                "shrink_percent": self.shrink_percent, "metric_shrink_percent": self.metric_shrink(),
+                "n_evals": self.n_evals, "seconds": self.seconds,
+                **({"effects": list(self.effects)} if self.effects else {})}
+
+
+def _float_search(objective, p, x0: float | None, n_grid: int = N_GRID, xtol_rel: float = 4e-3):
+    """Minimise ``objective(x)`` over ``[p.low, p.high]``: a grid (log-spaced if ``p.log``)
+    including ``x0``, then :func:`_refine` around its ``MAX_STARTS`` best local minima."""
+    lo, hi = float(p.low), float(p.high)
+    fwd = (np.log if p.log else (lambda v: v))
+    inv = (np.exp if p.log else (lambda v: v))
+    grid = np.linspace(fwd(lo), fwd(hi), n_grid)
+    if x0 is not None and lo <= x0 <= hi:
+        grid = np.unique(np.append(grid, fwd(x0)))
+    values = np.array([objective(float(inv(g))) for g in grid])
+    best_x, best_f = float(inv(grid[int(np.argmin(values))])), float(np.min(values))
+    if np.ptp(values) <= 1e-12 * max(float(np.max(np.abs(values))), 1e-300):
+        return best_x, best_f            # the parameter changes nothing here: no refinement
+    # refine around each of the (at most MAX_STARTS) best local minima of the grid: the gap can
+    # have a narrow valley between coarse points (a BRISK acceleration, a transition time)
+    # while a broad, shallower dip elsewhere holds the grid's best point
+    interior = [k for k in range(len(grid))
+                if (k == 0 or values[k] <= values[k - 1]) and (k == len(grid) - 1 or values[k] <= values[k + 1])]
+    for k in sorted(interior, key=lambda i: values[i])[:MAX_STARTS]:
+        x, f = _refine(objective, grid, values, k, inv, p.log, xtol_rel)
+        if f < best_f:
+            best_x, best_f = x, f
+    return best_x, best_f
+
+
+def _refine(objective, grid, values, k, inv, log: bool, xtol_rel: float):
+    """A finer grid between grid point ``k``'s neighbours (a narrow valley next to a plateau --
+    a limit that stops binding beyond some value -- is not missed), then bounded Brent between
+    the neighbours of the best point of both."""
+    a, b = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
+    fine = np.linspace(a, b, 6)[1:-1]
+    fine = fine[np.min(np.abs(fine[:, None] - grid[None, :]), axis=1) > 1e-12]
+    g2, v2 = grid, values
+    if len(fine):
+        g2 = np.concatenate([grid, fine])
+        v2 = np.concatenate([values, [objective(float(inv(g))) for g in fine]])
+        order = np.argsort(g2)
+        g2, v2 = g2[order], v2[order]
+        inside = np.nonzero((g2 >= a) & (g2 <= b))[0]
+        k = int(inside[np.argmin(v2[inside])])
+        a, b = g2[max(k - 1, 0)], g2[min(k + 1, len(g2) - 1)]
+    if b - a <= 0:
+        return float(inv(g2[k])), float(v2[k])
+    tol = xtol_rel if log else 0.05 * xtol_rel * max(abs(b - a), 1e-12)
+    res = minimize_scalar(lambda g: objective(float(inv(g))), bounds=(a, b), method="bounded",
+                          options={"xatol": tol})
+    if res.fun <= v2[k]:
+        return float(inv(res.x)), float(res.fun)
+    return float(inv(g2[k])), float(v2[k])
+
+
+def _int_search(objective, p, x0: int | None):
+    """Integer parameter: a geometric scan, then every integer between the best point's
+    neighbours in the scan."""
+    cand = sorted({v for v in INT_GRID if p.low <= v <= p.high} | {int(p.low), int(p.high)}
+                  | ({int(x0)} if x0 is not None and p.low <= x0 <= p.high else set()))
+    values = {v: objective(v) for v in cand}
+    best = min(values, key=values.get)
+    i = cand.index(best)
+    lo, hi = cand[max(i - 1, 0)], cand[min(i + 1, len(cand) - 1)]
+
+    def f(v):
+        if v not in values:
+            values[v] = objective(v)
+        return values[v]
+
+    # golden-section on the integers of [lo, hi] (unimodal near the scan's best), then +-1
+    a, b = lo, hi
+    while b - a > 3:
+        c = a + int(round(0.382 * (b - a)))
+        d = a + int(round(0.618 * (b - a)))
+        if c == d:
+            break
+        if f(c) <= f(d):
+            b = d
+        else:
+            a = c
+    for v in range(a, b + 1):
+        f(v)
+    best = min(values, key=values.get)
+    for v in (best - 1, best + 1):
+        if p.low <= v <= p.high:
+            f(v)
+    best = min(values, key=values.get)
+    return best, values[best]
+
+
+def fit_values(objective, params: Sequence, start: Mapping[str, object], free: Iterable[str]):
+    """Minimise ``objective(values)`` over the ``free`` parameters (others held at
+    ``start``). Choices are enumerated; for each, integers are scanned and floats searched one
+    at a time (coordinate search, two sweeps when more than one is free)."""
+    free = [p for p in params if p.name in set(free)]
+    choices = [p for p in free if p.kind == "choice"]
+    numeric = [p for p in free if p.kind != "choice"]
+    best_vals, best_f = dict(start), math.inf
+    combos = [{}]
+    for p in choices:
+        combos = [dict(c, **{p.name: ch}) for c in combos for ch in p.choices]
+    for combo in combos:
+        vals = dict(start, **combo)
+        f = None
+        sweeps = 2 if len(numeric) > 1 else 1
+        for _ in range(sweeps):
+            for p in numeric:
+                def obj1(x, p=p, vals=vals):
+                    return objective(dict(vals, **{p.name: x}))
+                if p.kind == "int":
+                    x, f = _int_search(obj1, p, vals.get(p.name))
+                else:
+                    x0 = vals.get(p.name)
+                    x, f = _float_search(obj1, p, None if x0 is None else float(x0))
+                vals[p.name] = x
+        floats = [p for p in numeric if p.kind == "float"]
+        if len(floats) >= 2:
+            vals, f = _polish(objective, floats, vals)
+        if f is None:
+            f = objective(vals)
+        if f < best_f:
+            best_vals, best_f = vals, f
+    return best_vals, best_f
+
+
+def _polish(objective, floats, vals):
+    """Nelder-Mead over several float parameters together (log-scaled where the parameter is),
+    from the coordinate-search result: coordinate steps stall in a curved valley (e.g. Kv and
+    the feed-forward weight, which trade off along (1 - k_ff)/Kv)."""
+    from scipy.optimize import minimize
+
+    def to_x(v):
+        return np.array([math.log(v[p.name]) if p.log else v[p.name] for p in floats])
+
+    def to_vals(x):
+        out = dict(vals)
+        for p, xi in zip(floats, x):
+            lo, hi = float(p.low), float(p.high)
+            out[p.name] = min(max(math.exp(xi) if p.log else float(xi), lo), hi)
+        return out
+
+    x0 = to_x(vals)
+    span = np.array([0.1 if p.log else 0.1 * (p.high - p.low) for p in floats])
+    simplex = np.vstack([x0] + [x0 + np.eye(len(floats))[i] * span[i] for i in range(len(floats))])
+    res = minimize(lambda x: objective(to_vals(x)), x0, method="Nelder-Mead",
+                   options={"initial_simplex": simplex, "xatol": 1e-4, "fatol": 1e-10,
+                            "maxfev": 300})
+    best = to_vals(res.x)
+    f = objective(best)
+    f0 = objective(vals)
+    return (best, f) if f <= f0 else (vals, f0)
+
+
+def free_params(effect, command: bool) -> list[str]:
+    return [p.name for p in effect.params if command or not p.fixed_unless_command]
+
+
+def fit_effect(evaluator, base: Model, effect_name: str, *,
+               gap_before=None, command: bool = False) -> EffectFit:
+    """Add (or re-fit) one effect on ``base`` and fit its parameters to minimise the gap.
+
+    ``evaluator`` is anything with ``evaluate(model)`` returning an object with a ``gap``
+    (:class:`Evaluator` for traces, ``gap_summary.SummaryEvaluator`` for published values)
+    and an ``n_evals`` counter."""
+    t0 = time.perf_counter()
+    effect = get_effect(effect_name)
+    n0 = evaluator.n_evals
+    if gap_before is None:
+        gap_before = evaluator.evaluate(base)
+    start = effect.check({k: v for k, v in effect.current(base).items()})
+    cache: dict = {}
+
+    def objective(values):
+        key = tuple(sorted((k, round(v, 12) if isinstance(v, float) else v) for k, v in values.items()))
+        if key not in cache:
+            cache[key] = evaluator.evaluate(effect.apply(base, values)).gap ** 2
+        return cache[key]
+
+    values, _ = fit_values(objective, effect.params, start, free_params(effect, command))
+    model = effect.apply(base, values)
+    after = evaluator.evaluate(model)
+    return EffectFit(effect=effect_name, params=effect.check(values), model=model,
+                     gap_before=gap_before, gap_after=after, added=not effect.is_active(base),
+                     n_evals=evaluator.n_evals - n0, seconds=time.perf_counter() - t0)
+
+
+# ---------------------------------------------------------------------------------------------
+# Localisation
+# ---------------------------------------------------------------------------------------------
+
+PHASE_NAMES = {int(p): p.name for p in AlignPhase}
+SECTOR_DEG = 30.0
+
+
+def localise(al: Alignment, mt: ModelTrace, path: Path, scales: GapScales,
+             measured: MeasuredTrace, *, top_blocks: int = 10) -> dict:
+    """Where the gap is (module docstring, step 4): per block, per phase, per angular sector of
+    arcs, and the ISO 230-4 indexes of full circles (measured and model)."""
+    model_speed = _compare_speed(mt, scales)
+    v_model = np.interp(al.t_sim_s, mt.t_s, model_speed)
+    feed_err = al.feed_mm_s - v_model
+    dist_um = al.distance_mm * 1e3
+    ok = al.valid & (al.block >= 0)
+    # at rest the place does not tell the time: time errors from samples in motion only
+    moving = v_model > MOVING_SHARE * max(float(np.max(model_speed)), 1e-9)
+    blocks = []
+    for b in np.unique(al.block[ok]):
+        sel = ok & (al.block == b)
+        idx = np.nonzero(sel)[0]
+        mov = np.nonzero(sel & moving)[0]
+        te = al.time_error_s[mov] if len(mov) else np.zeros(1)
+        blocks.append({"block": int(b), "line": int(path.line[b]), "n": int(len(idx)),
+                       "kind": "arc" if path.kind[b] == ARC else "line",
+                       "feed_error_mean_mm_s": float(np.mean(feed_err[idx])),
+                       "feed_error_rms_mm_s": _rms(feed_err[idx]),
+                       "time_error_in_ms": float(te[0]) * 1e3,
+                       "time_error_out_ms": float(te[-1]) * 1e3,
+                       "duration_error_ms": float(te[-1] - te[0]) * 1e3,
+                       "contour_rms_um": _rms(dist_um[idx]),
+                       "contour_max_um": float(np.max(dist_um[idx]))})
+    score = lambda r: (abs(r["duration_error_ms"]) / (scales.time_s * 1e3)  # noqa: E731
+                       + r["feed_error_rms_mm_s"] / scales.feed_mm_s
+                       + r["contour_rms_um"] / (scales.contour_mm * 1e3))
+    ranked = sorted(blocks, key=score, reverse=True)[:top_blocks]
+
+    phases = []
+    for code, name in PHASE_NAMES.items():
+        sel = al.valid & (al.phase == code)
+        if np.any(sel):
+            mov = sel & moving
+            phases.append({"phase": name, "n": int(np.count_nonzero(sel)),
+                           "feed_error_rms_mm_s": _rms(feed_err[sel]),
+                           "contour_rms_um": _rms(dist_um[sel]),
+                           "time_error_mean_ms": float(np.mean(al.time_error_s[mov])) * 1e3
+                           if np.any(mov) else 0.0})
+
+    q = measured.pos_mm - al.offset_mm
+    arcs = []
+    for b in np.unique(al.block[ok]):
+        if path.kind[b] != ARC or abs(path.normal[b][2]) < 0.99:
+            continue
+        sel = ok & (al.block == b)
+        if np.count_nonzero(sel) < 8:
+            continue
+        centre, radius = path.center_mm[b], float(path.radius_mm[b])
+        ang, dev = radial_deviation_um(q[sel][:, :2], centre[:2], radius)
+        in_model = mt.block == b
+        ang_m, dev_m = radial_deviation_um(mt.pos_mm[in_model][:, :2], centre[:2], radius)
+        n_bins = int(round(360.0 / SECTOR_DEG))
+        c, mean, vmax, vmin, count = deviation_profile(ang, dev, n_bins)
+        _, mean_m, _, _, _ = deviation_profile(ang_m, dev_m, n_bins)
+        # feed and time errors per sector (time: samples in motion only)
+        _, feed_s, _, _, _ = deviation_profile(ang, feed_err[sel], n_bins)
+        mov = moving[sel]
+        if np.any(mov):
+            _, time_s, _, _, _ = deviation_profile(ang[mov], al.time_error_s[sel][mov] * 1e3, n_bins)
+        else:
+            time_s = np.full(n_bins, np.nan)
+        row = {"block": int(b), "line": int(path.line[b]), "radius_mm": radius,
+               "sweep_deg": float(np.degrees(path.sweep_rad[b])),
+               "sectors": [{"angle_deg": float(np.degrees(ci)), "n": int(ni),
+                            "measured_dev_um": _num(mi), "model_dev_um": _num(mm),
+                            "gap_um": _num(mi - mm) if np.isfinite(mi) and np.isfinite(mm) else None,
+                            "feed_error_mm_s": _num(fi), "time_error_ms": _num(ti)}
+                           for ci, mi, mm, ni, fi, ti in zip(c, mean, mean_m, count, feed_s, time_s)
+                           if ni > 0]}
+        if path.sweep_rad[b] >= 2 * np.pi - 1e-6 and np.count_nonzero(sel) >= 16:
+            meas = circular_deviation(q[sel][:, :2], centre[:2], radius)
+            model = circular_deviation(mt.pos_mm[in_model][:, :2], centre[:2], radius)
+            row["iso230"] = {"measured": _iso(meas), "model": _iso(model)}
+        arcs.append(row)
+    return {"blocks": ranked, "n_blocks": len(blocks), "phases": phases, "arcs": arcs}
+
+
+def _num(v):
+    return float(v) if v is not None and np.isfinite(v) else None
+
+
+def _iso(ci) -> dict:
+    return {"G_um": ci.G_um, "Fmax_um": ci.Fmax_um, "Fmin_um": ci.Fmin_um}
+
+
+# ---------------------------------------------------------------------------------------------
+# Diagnosis
+# ---------------------------------------------------------------------------------------------
+
+class RankedFits:
+    """Shared by the diagnoses of a trace and of published values: the best fit, and the
+    corrected model (the combined one when there is one) with its machine file."""
+
+    fits: list
+    combined: "EffectFit | None"
+
+    @property
+    def best(self) -> EffectFit:
+        return self.fits[0]
+
+    @property
+    def corrected_model(self) -> Model:
+        return self.combined.model if self.combined is not None else self.best.model
+
+    def corrected_machine(self) -> MachineSpec:
+        return corrected_machine(self.corrected_model)
+
+
+@dataclass
+class Diagnosis(RankedFits):
+    """Ranked attribution of a measured gap (see :func:`diagnose`)."""
+
+    base: str
+    base_model: Model
+    gap_before: GapMetrics
+    fits: list[EffectFit]                # ranked, best first
+    combined: EffectFit | None
+    localisation_before: dict
+    localisation_after: dict | None
+    scales: GapScales
+    alignment: dict
+    seconds: float
+    source: str = ""
+    program: str = ""
+    notes: tuple[str, ...] = ()
+
+    def as_dict(self) -> dict:
+        return {"kind": "trace", "source": self.source, "program": self.program,
+                "base": self.base, "base_model": model_description(self.base_model),
+                "gap_before": self.gap_before.as_dict(),
+                "scales": {"feed_mm_s": self.scales.feed_mm_s, "time_ms": self.scales.time_s * 1e3,
+                           "contour_um": self.scales.contour_mm * 1e3,
+                           "noise_um": self.scales.noise_mm * 1e3},
+                "alignment": self.alignment,
+                "effects": [f.as_dict() for f in self.fits],
+                "combined": self.combined.as_dict() if self.combined is not None else None,
+                "localisation": {"base": self.localisation_before,
+                                 "corrected": self.localisation_after},
+                "notes": list(self.notes), "seconds": self.seconds}
+
+
+def default_candidates(command: bool = False) -> tuple[str, ...]:
+    return PLANNER_EFFECTS + TRACE_EFFECTS + (("servo_delay",) if command else ())
+
+
+def combine(evaluator, fits: Sequence[EffectFit], gap_before,
+            max_effects: int = 4, max_tries: int = 4) -> EffectFit | None:
+    """Greedy combined model: start from the first fit (the best single effect); try the next
+    ones that shrank the gap on their own (at most ``max_tries``), each re-fitted on top of the
+    current model with the earlier effects held, and keep those that shrink the current gap by
+    at least ``COMBINE_MIN_GAIN`` of its value. ``fits`` gives the order of the trials."""
+    if not fits or fits[0].shrink_percent <= 0:
+        return None
+    t0 = time.perf_counter()
+    n0 = evaluator.n_evals
+    current = fits[0]
+    chosen = [fits[0].effect]
+    params = {fits[0].effect: fits[0].params}
+    tried = 0
+    for f in fits[1:]:
+        if len(chosen) >= max_effects or tried >= max_tries or f.shrink_percent <= 0.5:
+            continue
+        tried += 1
+        trial = fit_effect(evaluator, current.model, f.effect, gap_before=current.gap_after)
+        if trial.gap_after.gap < current.gap_after.gap * (1.0 - COMBINE_MIN_GAIN):
+            current = trial
+            chosen.append(f.effect)
+            params[f.effect] = trial.params
+    if len(chosen) == 1:
+        return None
+    return EffectFit(effect="+".join(chosen), params={k: v for e in chosen for k, v in params[e].items()},
+                     model=current.model, gap_before=gap_before, gap_after=current.gap_after,
+                     added=True, n_evals=evaluator.n_evals - n0,
+                     seconds=time.perf_counter() - t0, effects=tuple(chosen))
+
+
+def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base: str = "full",
+             candidates: Sequence[str] | None = None, do_combine: bool = True,
+             localisation: bool = True, align_options: Mapping | None = None,
+             program: str = "") -> Diagnosis:
+    """Diagnose the gap between ``measured`` and the ``base`` model of ``path`` on ``machine``
+    (module docstring). ``candidates`` defaults to every planner effect and the servo and
+    structure effects."""
+    t0 = time.perf_counter()
+    base_model = make_base(machine, base)
+    ev = Evaluator(path, measured, align_options=align_options)
+    before, al, mt = ev.evaluate(base_model, full=True)
+    cands = tuple(candidates) if candidates is not None else default_candidates()
+    for c in cands:
+        get_effect(c)
+    fits = [fit_effect(ev, base_model, c, gap_before=before) for c in cands]
+    fits.sort(key=lambda f: f.gap_after.gap)
+    comb = combine(ev, fits, before) if do_combine else None
+    notes = []
+    loc_before = localise(al, mt, path, ev.scales, measured) if localisation else {}
+    loc_after = None
+    if localisation:
+        final = comb.model if comb is not None else fits[0].model
+        _, al2, mt2 = ev.evaluate(final, full=True)
+        loc_after = localise(al2, mt2, path, ev.scales, measured)
+    if not measured.has_command and "servo_lag" in cands:
+        notes.append("servo_lag: without commanded positions only Kv/sqrt(1 - k_ff^2) is "
+                     "identifiable; k_ff held at 0 (Kv is the FFWOF-equivalent gain)")
+    return Diagnosis(base=base, base_model=base_model, gap_before=before, fits=fits,
+                     combined=comb, localisation_before=loc_before,
+                     localisation_after=loc_after, scales=ev.scales,
+                     alignment={"time_shift_s": al.time_shift_s,
+                                "offset_mm": [float(v) for v in al.offset_mm],
+                                "shift_method": al.shift_method,
+                                "offset_method": al.offset_method},
+                     seconds=time.perf_counter() - t0, source=measured.source, program=program,
+                     notes=tuple(notes))

@@ -1,0 +1,521 @@
+"""Effects: model components a base model may lack, each with physically named parameters.
+
+The sim-to-real gap diagnosis (issue 5, ``ncsim.gap``) starts from a *base model* -- a
+:class:`Model` with some effects switched off -- and asks, for every effect of the library, how
+much of the gap closes once that effect is added with fitted parameters. An effect is a small
+object with
+
+* ``name`` (CLI and JSON key), ``title``, ``meaning`` (the physics, with the paper equation),
+* ``params``: :class:`Param` (name with unit, bounds, search scale, meaning),
+* ``current(model)``: the values the model uses now (machine file; the initial guess),
+* ``apply(model, values)``: the model with the effect switched on at those values,
+* ``remove(model)``: the model with the effect switched off (to build base models),
+* for planner effects ``apply_planner(machine, options, values) -> (machine, options)``;
+  for trace (post-processing) effects ``apply_to_trace(trace, t_s, pos_mm, values) -> pos_mm``.
+
+Planner effects change the :class:`~ncsim.machine.MachineSpec` and the
+:class:`~ncsim.motion.ModelOptions`, so the planner (``ncsim.plan``) re-plans. Trace effects act
+on the sampled set point: what the axes and the structure do to the commanded positions. They
+are closed forms that share no code with the time-stepping truth of ``ncsim.servo``:
+
+* ``servo_lag``: the exact first-order-hold discretisation of
+  ``X/Xc = (k_ff s + Kv) / (s + Kv)`` (P position loop, ideal speed loop, velocity feed-forward
+  weight k_ff), i.e. ``x = k_ff x_c + (1 - k_ff) L[x_c]`` with ``L`` the first-order low-pass of
+  time constant 1/Kv, as a two-tap IIR filter (``scipy.signal.lfilter``);
+* ``compliance``: the quasi-static deflection ``-c A`` of a structure of compliance
+  ``c = m/k`` under the set point's acceleration; its normal part is the outward offset
+  ``c a_n`` along the principal normal (``a_n = V^2 / R``, paper eq. 1), the paper's
+  "centrifugation" (§5.2, §6.2);
+* ``servo_delay``: a pure time delay (what a recording skew between command and actual, or a
+  dead time in the drive, looks like).
+
+Units: parameters are in the units people set machines in (m/s^3, ms, 1/s, um per m/s^2) and
+say so in their names; everything is converted to mm and s at the boundary of ``apply``.
+
+Base models (``make_base``): ``full`` (the planner's full model, no servo or structure),
+``axis-only`` (axis limits only: no NCU path jerk, no transition crossing, no cycle-time limit,
+no look-ahead limit -- the paper's §5.2.1 static look-ahead plus controlled-jerk ramps), and
+``full-minus-EFFECT`` for any planner effect (``full-minus-transition`` ...).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Mapping
+
+import numpy as np
+from scipy.signal import lfilter, lfilter_zi
+
+from ncsim.errors import UsageError
+from ncsim.machine import MachineSpec, StructureSpec
+from ncsim.motion import FULL_MODEL, ModelOptions
+from ncsim.path import BRISK, SOFT
+
+# ---------------------------------------------------------------------------------------------
+# Parameters and models
+# ---------------------------------------------------------------------------------------------
+
+ACCEL_MODE_CHOICES = {"SOFT": SOFT, "BRISK": BRISK}
+
+
+@dataclass(frozen=True)
+class Param:
+    """One fitted parameter of an effect.
+
+    ``kind``: ``"float"`` (searched between ``low`` and ``high``, on a log scale when ``log``),
+    ``"int"`` (an integer in [low, high]) or ``"choice"`` (one of ``choices``, strings).
+    ``fixed_unless_command``: only identifiable when the measured trace has commanded
+    positions (e.g. the feed-forward weight, see ``servo_lag``); held at ``default`` otherwise.
+    """
+
+    name: str
+    unit: str
+    low: float
+    high: float
+    meaning: str
+    kind: str = "float"
+    log: bool = True
+    choices: tuple[str, ...] = ()
+    default: float | str | None = None
+    fixed_unless_command: bool = False
+
+    def clip(self, value):
+        if self.kind == "choice":
+            if value not in self.choices:
+                raise UsageError(f"parameter {self.name}: {value!r} is not one of {', '.join(self.choices)}")
+            return value
+        v = float(value)
+        if not math.isfinite(v):
+            raise UsageError(f"parameter {self.name} must be a finite number, got {value!r}")
+        v = min(max(v, self.low), self.high)
+        return int(round(v)) if self.kind == "int" else v
+
+
+@dataclass(frozen=True)
+class Model:
+    """A simulation model: machine, planner options and trace (post-processing) effects.
+
+    ``post`` holds ``(effect name, ((param, value), ...))`` in the order they act on the set
+    point (servo before structure: the structure deflects under what the drives do)."""
+
+    machine: MachineSpec
+    options: ModelOptions = FULL_MODEL
+    post: tuple[tuple[str, tuple[tuple[str, object], ...]], ...] = ()
+
+    def post_values(self, name: str) -> dict | None:
+        for n, values in self.post:
+            if n == name:
+                return dict(values)
+        return None
+
+    def with_post(self, name: str, values: Mapping[str, object]) -> "Model":
+        items = tuple(sorted(values.items()))
+        post = [p for p in self.post if p[0] != name] + [(name, items)]
+        post.sort(key=lambda p: POST_ORDER.index(p[0]) if p[0] in POST_ORDER else len(POST_ORDER))
+        return replace(self, post=tuple(post))
+
+    def without_post(self, name: str) -> "Model":
+        return replace(self, post=tuple(p for p in self.post if p[0] != name))
+
+    @property
+    def planner_key(self):
+        """What the planner depends on (hashable): re-plan only when this changes."""
+        return (self.machine, self.options)
+
+
+POST_ORDER = ("servo_delay", "servo_lag", "compliance")
+
+
+# ---------------------------------------------------------------------------------------------
+# Pure physics of the trace effects
+# ---------------------------------------------------------------------------------------------
+
+def first_order_lag_coefficients(kv_1_s: float, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """IIR coefficients ``(b, a)`` of the exact discretisation of ``y' = Kv (u - y)`` for an
+    input that is linear between samples (first-order hold)::
+
+        y[k+1] = E y[k] + b0 u[k+1] + b1 u[k],   E = exp(-Kv h),
+        b0 = 1 - (1 - E) / (Kv h),   b1 = (1 - E) / (Kv h) - E
+
+    (integrate ``Kv exp(-Kv (h - tau)) u(tau)`` over one step with ``u`` linear). The DC gain
+    ``(b0 + b1) / (1 - E)`` is 1 and a ramp ``u = v t`` is followed with the lag ``v / Kv``."""
+    x = kv_1_s * dt_s
+    e = math.exp(-x)
+    g = -math.expm1(-x) / x  # (1 - E) / (Kv h), accurate for small x
+    return np.array([1.0 - g, g - e]), np.array([1.0, -e])
+
+
+def servo_lag_mm(t_s: np.ndarray, cmd_mm: np.ndarray, kv_1_s: float, ffw_weight: float = 0.0) -> np.ndarray:
+    """Actual positions of axes with position-loop gain ``Kv`` and velocity feed-forward weight
+    ``k_ff`` (ideal speed loop): ``X/Xc = (k_ff s + Kv)/(s + Kv) = k_ff + (1 - k_ff) Kv/(s + Kv)``.
+
+    Steady following error at feed v: ``(1 - k_ff) v / Kv``; on a circle of angular rate W the
+    radius shrinks to ``R sqrt((k_ff^2 W^2 + Kv^2) / (W^2 + Kv^2))``. ``t_s`` must be a uniform
+    grid; the axes start at rest on the first command point."""
+    t = np.asarray(t_s, dtype=np.float64)
+    u = np.asarray(cmd_mm, dtype=np.float64)
+    if len(t) < 2:
+        return u.copy()
+    dt = float(t[1] - t[0])
+    if not np.allclose(np.diff(t), dt, rtol=1e-6, atol=1e-12):
+        raise UsageError("servo_lag_mm needs a uniform time grid")
+    b, a = first_order_lag_coefficients(kv_1_s, dt)
+    zi = lfilter_zi(b, a)[:, None] * u[0][None, :]
+    low, _ = lfilter(b, a, u, axis=0, zi=zi)
+    return ffw_weight * u + (1.0 - ffw_weight) * low
+
+
+def compliance_offset_mm(acc_mm_s2: np.ndarray, compliance_s2: float) -> np.ndarray:
+    """Quasi-static structural deflection ``-c A`` under the set point's acceleration
+    ``A = dV/dt t + V^2 kappa n`` (paper eq. 1), ``c = m/k = 1/w_s^2`` (s^2 = mm per mm/s^2).
+
+    Its normal part ``-c V^2 kappa n`` points away from the centre of curvature: the tool runs
+    OUTWARD by ``c V^2 / R``, the paper's Table 3 "centrifugation" (the radial deviation);
+    its tangential part ``-c dV/dt`` only shifts the tool along the path during ramps (the
+    tool lags while accelerating). Valid below the structure's resonance (quasi-static)."""
+    return -compliance_s2 * np.asarray(acc_mm_s2, dtype=np.float64)
+
+
+def delayed_mm(t_s: np.ndarray, pos_mm: np.ndarray, delay_s: float) -> np.ndarray:
+    """``x(t - d)``: a pure delay (linear interpolation, held at the first value before it)."""
+    t = np.asarray(t_s, dtype=np.float64)
+    p = np.asarray(pos_mm, dtype=np.float64)
+    return np.column_stack([np.interp(t - delay_s, t, p[:, k]) for k in range(p.shape[1])])
+
+
+# ---------------------------------------------------------------------------------------------
+# Effects
+# ---------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Effect:
+    """Base of the library's effects (see the module docstring)."""
+
+    name: str
+    title: str
+    meaning: str
+    params: tuple[Param, ...]
+    kind: str = "planner"          # "planner" or "trace"
+    option: str | None = None      # the ModelOptions switch of a planner effect
+    command_only: bool = False     # only meaningful on command-vs-actual data (the servo part)
+
+    # -- common API --------------------------------------------------------------------------
+    def param(self, name: str) -> Param:
+        for p in self.params:
+            if p.name == name:
+                return p
+        raise UsageError(f"effect {self.name} has no parameter {name!r} "
+                         f"(it has: {', '.join(p.name for p in self.params)})")
+
+    def check(self, values: Mapping[str, object]) -> dict:
+        """Values for every parameter (missing ones from ``default``), clipped to the bounds."""
+        out = {}
+        for p in self.params:
+            if p.name in values:
+                out[p.name] = p.clip(values[p.name])
+            elif p.default is not None:
+                out[p.name] = p.default
+            else:
+                raise UsageError(f"effect {self.name}: missing parameter {p.name}")
+        unknown = set(values) - {p.name for p in self.params}
+        if unknown:
+            raise UsageError(f"effect {self.name}: unknown parameter {sorted(unknown)[0]!r}")
+        return out
+
+    def is_active(self, model: Model) -> bool:
+        if self.kind == "trace":
+            return model.post_values(self.name) is not None
+        return bool(getattr(model.options, self.option))
+
+    def current(self, model: Model) -> dict:
+        raise NotImplementedError
+
+    def apply(self, model: Model, values: Mapping[str, object]) -> Model:
+        v = self.check(values)
+        if self.kind == "trace":
+            return model.with_post(self.name, v)
+        machine, options = self.apply_planner(model.machine, model.options, v)
+        return replace(model, machine=machine, options=options)
+
+    def remove(self, model: Model) -> Model:
+        if self.kind == "trace":
+            return model.without_post(self.name)
+        return replace(model, options=replace(model.options, **{self.option: False}))
+
+    def apply_planner(self, machine: MachineSpec, options: ModelOptions, values):
+        raise NotImplementedError
+
+    def apply_to_trace(self, trace, t_s: np.ndarray, pos_mm: np.ndarray, values) -> np.ndarray:
+        raise NotImplementedError
+
+    def describe(self) -> dict:
+        return {"effect": self.name, "title": self.title, "meaning": self.meaning,
+                "kind": self.kind,
+                "params": [{"name": p.name, "unit": p.unit, "low": p.low, "high": p.high,
+                            "kind": p.kind, "choices": list(p.choices), "meaning": p.meaning}
+                           for p in self.params]}
+
+
+class NcuPathJerk(Effect):
+    def current(self, model):
+        return {"j_tcurv_m_s3": model.machine.ncu.tangential_jerk_mm_s3 / 1000.0}
+
+    def apply_planner(self, machine, options, v):
+        share = machine.ncu.tangential_jerk_share
+        m = machine.with_ncu(curvilinear_jerk_mm_s3=v["j_tcurv_m_s3"] * 1000.0 / share)
+        return m, replace(options, ncu_path_jerk=True)
+
+
+class TransitionCrossing(Effect):
+    def current(self, model):
+        return {"transition_time_ms": model.machine.ncu.transition_time_s * 1000.0}
+
+    def apply_planner(self, machine, options, v):
+        m = machine.with_ncu(transition_time_s=v["transition_time_ms"] / 1000.0)
+        return m, replace(options, transition_crossing=True)
+
+
+class CycleTimeLimit(Effect):
+    def current(self, model):
+        return {"ipo_cycle_ms": model.machine.ncu.ipo_cycle_s * 1000.0}
+
+    def apply_planner(self, machine, options, v):
+        m = machine.with_ncu(ipo_cycle_s=v["ipo_cycle_ms"] / 1000.0)
+        return m, replace(options, cycle_time_limit=True)
+
+
+def _plane_ratio(values: np.ndarray) -> np.ndarray:
+    """Per-axis factors relative to X (Y and Z keep their machine-file ratio to X)."""
+    return values / values[0]
+
+
+class AxisJerkRamps(Effect):
+    def current(self, model):
+        return {"axis_jerk_m_s3": float(model.machine.max_jerk_mm_s3[0]) / 1000.0}
+
+    def apply_planner(self, machine, options, v):
+        ratio = _plane_ratio(np.array(machine.max_jerk_mm_s3))
+        m = machine.with_axes(max_jerk_mm_s3=v["axis_jerk_m_s3"] * 1000.0 * ratio)
+        return m, replace(options, jerk_limited_ramps=True)
+
+
+class Lookahead(Effect):
+    def current(self, model):
+        return {"lookahead_blocks": int(model.machine.ncu.lookahead_blocks)}
+
+    def apply_planner(self, machine, options, v):
+        m = machine.with_ncu(lookahead_blocks=int(v["lookahead_blocks"]))
+        return m, replace(options, lookahead=True)
+
+
+class AccelMode(Effect):
+    def is_active(self, model):
+        return model.options.accel_mode is not None
+
+    def current(self, model):
+        mode = model.options.accel_mode
+        name = {SOFT: "SOFT", BRISK: "BRISK"}.get(mode, "SOFT")
+        return {"mode": name, "axis_accel_m_s2": float(model.machine.max_accel_mm_s2[0]) / 1000.0}
+
+    def remove(self, model):
+        return replace(model, options=replace(model.options, accel_mode=None))
+
+    def apply_planner(self, machine, options, v):
+        ratio = _plane_ratio(np.array(machine.max_accel_mm_s2))
+        m = machine.with_axes(max_accel_mm_s2=v["axis_accel_m_s2"] * 1000.0 * ratio)
+        return m, replace(options, accel_mode=ACCEL_MODE_CHOICES[v["mode"]])
+
+
+class ServoLag(Effect):
+    def current(self, model):
+        kv = np.asarray(model.machine.position_gain_1_s, dtype=float)
+        post = model.post_values(self.name) or {}
+        return {"kv_1_s": post.get("kv_1_s", float(kv[0]) if np.isfinite(kv[0]) else 30.0),
+                "ffw_weight": post.get("ffw_weight", 0.0)}
+
+    def apply_to_trace(self, trace, t_s, pos_mm, v):
+        return servo_lag_mm(t_s, pos_mm, float(v["kv_1_s"]), float(v["ffw_weight"]))
+
+
+class Compliance(Effect):
+    def current(self, model):
+        post = model.post_values(self.name) or {}
+        c = model.machine.structure.radial_compliance_mm_per_mm_s2 * 1e6
+        return {"compliance_um_per_m_s2": post.get("compliance_um_per_m_s2", c)}
+
+    def apply_to_trace(self, trace, t_s, pos_mm, v):
+        c = float(v["compliance_um_per_m_s2"]) * 1e-6  # um/(m/s^2) -> mm/(mm/s^2) = s^2
+        return pos_mm + compliance_offset_mm(trace.acc_mm_s2, c)
+
+
+class ServoDelay(Effect):
+    def current(self, model):
+        post = model.post_values(self.name) or {}
+        return {"delay_ms": post.get("delay_ms", 0.0)}
+
+    def apply_to_trace(self, trace, t_s, pos_mm, v):
+        return delayed_mm(t_s, pos_mm, float(v["delay_ms"]) / 1000.0)
+
+
+EFFECTS: dict[str, Effect] = {e.name: e for e in (
+    NcuPathJerk(
+        "ncu_path_jerk", "NCU curvilinear-jerk limit",
+        "The NCU limits the tangential jerk on arcs to J_tcurv = J_curv x r_jct (paper eq. 10), "
+        "so the steady feed on a circle is V_Jtcurv = (J_tcurv R^2)^(1/3) (eq. 11, 12), and phases "
+        "A/C ramp at no more than J_tcurv.",
+        (Param("j_tcurv_m_s3", "m/s^3", 0.5, 60.0, "J_curv x r_jct, the tangential jerk the NCU "
+               "allows on a curved path (paper: 10 x 0.6 = 6 m/s^3)"),),
+        option="ncu_path_jerk"),
+    TransitionCrossing(
+        "transition", "curvature-jump transition crossing",
+        "Between tangent blocks whose curvature jumps, the feed drops to "
+        "V_fr = sqrt(R1 R2 J_t dt / |R1 - R2|) (paper eq. 13) with J_t from the axis jerks at the "
+        "junction's direction (eq. 15): the jump in normal acceleration must take dt.",
+        (Param("transition_time_ms", "ms", 0.5, 100.0, "dt of eq. 13, the time allowed to cross "
+               "the curvature jump (paper: one interpolation cycle, 12 ms)"),),
+        option="transition_crossing"),
+    CycleTimeLimit(
+        "cycle_time", "interpolation-cycle limit",
+        "Every block lasts at least one interpolation cycle: V_tcy = L / t_cy (paper eq. 6), "
+        "which caps the feed on short blocks. t_cy also sets the G64 corner velocity jump and "
+        "the BRISK jerk.",
+        (Param("ipo_cycle_ms", "ms", 0.5, 100.0, "t_cy, the interpolation cycle (paper: 12 ms)"),),
+        option="cycle_time_limit"),
+    AxisJerkRamps(
+        "axis_jerk", "axis-jerk-limited phases A/C",
+        "Phases A and C of the feed law are controlled-jerk ramps at the smallest tangential jerk "
+        "the axes allow on the block (paper §5.2.2, eq. 9, 16: the acceleration rises and falls "
+        "linearly); without it the ramps are acceleration-limited. The axis jerk also enters the "
+        "steady feed (eq. 4) and the transition feeds (eq. 15).",
+        (Param("axis_jerk_m_s3", "m/s^3", 0.3, 200.0, "maximum X-axis jerk J_mx (Y and Z keep "
+               "their machine-file ratio to X; paper: 5 m/s^3)"),),
+        option="jerk_limited_ramps"),
+    Lookahead(
+        "lookahead", "limited look-ahead depth",
+        "The NC prepares only D blocks ahead and must be able to stop at the end of the last "
+        "one (840D dynamic look-ahead, paper §3.2): on short blocks the feed is capped by the "
+        "braking distance over D blocks, ramps up inside each block and falls back.",
+        (Param("lookahead_blocks", "blocks", 1, 128, "D, the number of blocks prepared ahead",
+               kind="int"),),
+        option="lookahead"),
+    AccelMode(
+        "accel_mode", "acceleration mode BRISK against SOFT",
+        "SOFT ramps the feed at controlled jerk (paper §3.3.2, Fig. 3); BRISK at the full axis "
+        "acceleration with no jerk limit (the jerk is A / t_cy), which shortens ramps and shakes "
+        "the structure. Chooses the mode the machine really runs and the acceleration it uses.",
+        (Param("mode", "", 0, 0, "acceleration mode the NC runs", kind="choice",
+               choices=("SOFT", "BRISK")),
+         Param("axis_accel_m_s2", "m/s^2", 0.2, 20.0, "maximum X-axis acceleration A_mx (Y and Z "
+               "keep their machine-file ratio to X; paper: 2.5 m/s^2)")),
+        option="accel_mode"),
+    ServoLag(
+        "servo_lag", "servo lag: position loop Kv with or without feed forward",
+        "The axes follow the set point through a P position loop of gain Kv with velocity "
+        "feed-forward weight k_ff (FFWON: 1, FFWOF: 0): X/Xc = (k_ff s + Kv)/(s + Kv). The "
+        "following error is (1 - k_ff) v / Kv and circles shrink by about "
+        "(1 - k_ff^2) a_n / (2 Kv^2). On contour data only Kv / sqrt(1 - k_ff^2) is "
+        "identifiable, so k_ff is held at 0 there (Kv is then the FFWOF-equivalent gain) and "
+        "fitted only against commanded positions.",
+        (Param("kv_1_s", "1/s", 3.0, 1000.0, "position-loop gain Kv (MD32200; 1 m/min/mm = "
+               "16.7 1/s)"),
+         Param("ffw_weight", "", 0.0, 1.0, "velocity feed-forward weight k_ff (MD32610)",
+               log=False, default=0.0, fixed_unless_command=True)),
+        kind="trace"),
+    Compliance(
+        "compliance", "structural compliance (centrifugal radial deviation)",
+        "The structure between the drives and the tool yields under the centripetal "
+        "acceleration: the tool moves outward by c a_n = c V^2 / R along the principal normal "
+        "(paper §5.2, Table 3: Fmax grows with the feed). c = m / k = 1 / w_s^2 of the "
+        "structural mode.",
+        (Param("compliance_um_per_m_s2", "um/(m/s^2)", 1.0, 1000.0, "c, the outward deviation "
+               "per unit normal acceleration"),),
+        kind="trace"),
+    ServoDelay(
+        "servo_delay", "pure delay between command and actual",
+        "The actual position is the command delayed by d: a dead time in the drives or a skew "
+        "between the instants the command and the actual value are recorded. Invisible against "
+        "a simulated path (the alignment absorbs any delay); a candidate of the servo part only.",
+        (Param("delay_ms", "ms", 0.0, 200.0, "d, the delay", log=False),),
+        kind="trace", command_only=True),
+)}
+
+#: planner effects, in the order the diagnosis lists them
+PLANNER_EFFECTS = tuple(n for n, e in EFFECTS.items() if e.kind == "planner")
+#: trace effects that act on a simulated path (the servo part adds ``servo_delay``)
+TRACE_EFFECTS = tuple(n for n, e in EFFECTS.items() if e.kind == "trace" and not e.command_only)
+
+
+def get_effect(name: str) -> Effect:
+    try:
+        return EFFECTS[name]
+    except KeyError:
+        raise UsageError(f"unknown effect {name!r} (known: {', '.join(EFFECTS)})") from None
+
+
+# ---------------------------------------------------------------------------------------------
+# Base models
+# ---------------------------------------------------------------------------------------------
+
+AXIS_ONLY_OFF = ("ncu_path_jerk", "transition", "cycle_time", "lookahead")
+
+
+def base_names() -> tuple[str, ...]:
+    return ("full", "axis-only") + tuple(f"full-minus-{n}" for n in PLANNER_EFFECTS)
+
+
+def make_base(machine: MachineSpec, base: str = "full") -> Model:
+    """The named base model on ``machine`` (see the module docstring). Trace effects are never
+    in a base: a base is what the planner predicts the set point to be."""
+    full = Model(machine=machine, options=FULL_MODEL)
+    if base == "full":
+        return full
+    if base == "axis-only":
+        m = full
+        for name in AXIS_ONLY_OFF:
+            m = EFFECTS[name].remove(m)
+        return m
+    if base.startswith("full-minus-"):
+        name = base[len("full-minus-"):].replace("-", "_")
+        if name in EFFECTS and EFFECTS[name].kind == "planner":
+            return EFFECTS[name].remove(full)
+    raise UsageError(f"unknown base model {base!r} (known: {', '.join(base_names())})")
+
+
+def model_description(model: Model) -> dict:
+    """JSON-able: which effects are on, with their current values."""
+    out = {}
+    for name, e in EFFECTS.items():
+        if e.command_only and not e.is_active(model):
+            continue
+        out[name] = {"active": e.is_active(model),
+                     "params": _jsonable(e.current(model)) if e.is_active(model) or e.kind == "planner" else {}}
+    return out
+
+
+def _jsonable(values: Mapping[str, object]) -> dict:
+    return {k: (v if isinstance(v, str) else (int(v) if isinstance(v, (int, np.integer)) else float(v)))
+            for k, v in values.items()}
+
+
+def corrected_machine(model: Model) -> MachineSpec:
+    """The machine file of a (fitted) model: planner parameters are already in the machine;
+    a fitted Kv goes to every axis's ``position_gain_1_s``, a compliance to ``[structure]``.
+    (The acceleration mode, the feed-forward weight and a delay have no machine-file key.)"""
+    m = model.machine
+    lag = model.post_values("servo_lag")
+    if lag is not None:
+        m = m.with_axes(position_gain_1_s=float(lag["kv_1_s"]))
+    comp = model.post_values("compliance")
+    if comp is not None:
+        m = replace(m, structure=StructureSpec(
+            radial_compliance_mm_per_mm_s2=float(comp["compliance_um_per_m_s2"]) * 1e-6))
+    return m
+
+
+def apply_trace_effects(model: Model, trace, t_s: np.ndarray, pos_mm: np.ndarray) -> np.ndarray:
+    """The set-point positions ``pos_mm`` (on the uniform grid ``t_s``) after the model's trace
+    effects, in ``POST_ORDER``."""
+    out = pos_mm
+    for name, values in model.post:
+        out = EFFECTS[name].apply_to_trace(trace, t_s, out, dict(values))
+    return out

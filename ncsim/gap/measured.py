@@ -1,0 +1,782 @@
+"""Measured data: oscilloscope-like traces (CSV) and published summary values (TOML).
+
+This is the input side of the sim-to-real gap diagnosis (issue 5). Everything is converted to
+ncsim's internal units at load time (mm, s, mm/s, mm/s^2). Every problem with a file is a
+one-line :class:`~ncsim.errors.MeasuredDataError` naming the file and the line, the column or
+the key path.
+
+Trace CSV, default column convention (header row required, ``#`` comment lines allowed,
+delimiter ``,`` ``;`` or tab)::
+
+    t_s, x_mm, y_mm[, z_mm][, feed_mm_min][, vx_mm_s, vy_mm_s[, vz_mm_s]][, x_cmd_mm, y_cmd_mm[, z_cmd_mm]][, line]
+
+Other unit suffixes are recognised on the default names (``t_ms``, ``x_um``, ``feed_m_min``,
+``feed_mm_s`` ...). Other names are mapped with ``columns={"t": "Time", "x": "X1_Actual"}`` and
+their units given with ``units={"t": "ms", "x": "um", "feed": "m/min"}`` (a unit is otherwise
+taken from a recognised suffix of the mapped name, else: s, mm, mm/s, and mm/min for the path
+feed, the 840D convention). Time may be generated from ``sample_period_s`` when the file has
+no time column (optionally times a row-index column, so that missing rows show as gaps).
+
+Samples may be missing (non-uniform but increasing time is fine); a repeated or decreasing
+time, an empty cell, a NaN or a missing column is an error.
+"""
+from __future__ import annotations
+
+import csv
+import math
+import tomllib
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path as FsPath
+from typing import Any, Mapping
+
+import numpy as np
+
+from ncsim.errors import MeasuredDataError, UsageError
+
+AXES = ("x", "y", "z")
+
+# ---------------------------------------------------------------------------------------------
+# Units
+# ---------------------------------------------------------------------------------------------
+
+#: quantity kind -> unit name -> factor to the internal unit (s, mm, mm/s, mm/s^2)
+UNIT_FACTORS: dict[str, dict[str, float]] = {
+    "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "min": 60.0},
+    "length": {"mm": 1.0, "um": 1e-3, "m": 1e3, "in": 25.4, "nm": 1e-6},
+    "velocity": {"mm/s": 1.0, "mm/min": 1.0 / 60.0, "m/min": 1000.0 / 60.0, "m/s": 1000.0,
+                 "um/s": 1e-3, "in/min": 25.4 / 60.0},
+    "acceleration": {"mm/s2": 1.0, "m/s2": 1000.0, "um/s2": 1e-3},
+}
+
+_UNIT_ALIASES = {"µm": "um", "μm": "um", "µs": "us", "μs": "us", "sec": "s", "inch": "in",
+                 "mm_s": "mm/s", "mm_min": "mm/min", "m_min": "m/min", "m_s": "m/s", "um_s": "um/s",
+                 "in_min": "in/min", "mm/s^2": "mm/s2", "mm/s²": "mm/s2", "mm_s2": "mm/s2",
+                 "m/s^2": "m/s2", "m/s²": "m/s2", "m_s2": "m/s2", "um_s2": "um/s2"}
+
+#: logical trace key -> quantity kind
+KEY_KIND = {"t": "time", "x": "length", "y": "length", "z": "length", "feed": "velocity",
+            "vx": "velocity", "vy": "velocity", "vz": "velocity",
+            "x_cmd": "length", "y_cmd": "length", "z_cmd": "length", "line": None}
+
+#: default candidate column names per logical key (first match in the header wins)
+DEFAULT_COLUMNS: dict[str, tuple[str, ...]] = {
+    "t": ("t_s", "t_ms", "time_s", "time_ms"),
+    "x": ("x_mm", "x_um"), "y": ("y_mm", "y_um"), "z": ("z_mm", "z_um"),
+    "feed": ("feed_mm_min", "feed_mm_s", "feed_m_min"),
+    "vx": ("vx_mm_s", "vx_mm_min"), "vy": ("vy_mm_s", "vy_mm_min"), "vz": ("vz_mm_s", "vz_mm_min"),
+    "x_cmd": ("x_cmd_mm", "x_cmd_um"), "y_cmd": ("y_cmd_mm", "y_cmd_um"),
+    "z_cmd": ("z_cmd_mm", "z_cmd_um"),
+    "line": ("line",),
+}
+
+_DEFAULT_UNIT = {"time": "s", "length": "mm", "velocity": "mm/s"}
+_GROUP_UNIT_KEYS = {"pos": ("x", "y", "z", "x_cmd", "y_cmd", "z_cmd"), "vel": ("vx", "vy", "vz")}
+
+
+def normalise_unit(unit: str) -> str:
+    u = unit.strip()
+    return _UNIT_ALIASES.get(u, u)
+
+
+def unit_factor(kind: str, unit: str) -> float:
+    """Factor from ``unit`` to ncsim's internal unit of ``kind`` (raises ``KeyError``)."""
+    return UNIT_FACTORS[kind][normalise_unit(unit)]
+
+
+def unit_from_suffix(name: str, kind: str) -> str | None:
+    """The unit named by a column-name suffix (``t_ms`` -> ms, ``feed_m_min`` -> m/min), or None.
+
+    Only units of the expected quantity ``kind`` are considered, longest suffix first."""
+    lowered = name.strip().lower()
+    candidates = []
+    for unit in UNIT_FACTORS[kind]:
+        suffix = "_" + unit.replace("/", "_")
+        if lowered.endswith(suffix):
+            candidates.append((len(suffix), unit))
+    return max(candidates)[1] if candidates else None
+
+
+# ---------------------------------------------------------------------------------------------
+# The trace
+# ---------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class MeasuredTrace:
+    """A measured (or synthetic "measured") trace: one row per recorded sample.
+
+    ``pos_mm`` is the actual position (what the encoders saw); ``cmd_pos_mm``, when present, is
+    the position set point the NC sent to the drives at the same instant, so that a gap can be
+    split into its planner part (simulation vs command) and its servo part (command vs actual).
+    ``segment`` numbers contiguous recordings (a trace stitched from several pieces, e.g. after
+    trimming idle rows); None means one recording. ``extra`` holds other columns kept by a
+    loader (e.g. the programmed feed), each with ``len(t_s)`` rows.
+    """
+
+    t_s: np.ndarray                          # (m,) strictly increasing
+    pos_mm: np.ndarray                       # (m, 3) actual X Y Z
+    feed_mm_s: np.ndarray | None = None      # (m,) recorded path feed
+    vel_mm_s: np.ndarray | None = None       # (m, 3) actual axis velocities
+    acc_mm_s2: np.ndarray | None = None      # (m, 3) actual axis accelerations
+    cmd_pos_mm: np.ndarray | None = None     # (m, 3) commanded positions
+    cmd_vel_mm_s: np.ndarray | None = None   # (m, 3) commanded axis velocities
+    cmd_acc_mm_s2: np.ndarray | None = None  # (m, 3) commanded axis accelerations
+    line: np.ndarray | None = None           # (m,) int NC line / sequence number reported
+    segment: np.ndarray | None = None        # (m,) int contiguous-recording index
+    source: str = "<measured>"
+    extra: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.t_s, dtype=np.float64)
+        if t.ndim != 1 or len(t) == 0:
+            raise MeasuredDataError("trace has no samples", file=self.source)
+        m = len(t)
+        object.__setattr__(self, "t_s", t)
+        for f in fields(self):
+            if f.name in ("t_s", "source", "extra"):
+                continue
+            v = getattr(self, f.name)
+            if v is None:
+                continue
+            dtype = np.int64 if f.name in ("line", "segment") else np.float64
+            arr = np.asarray(v, dtype=dtype)
+            want = (m,) if f.name in ("feed_mm_s", "line", "segment") else (m, 3)
+            if arr.shape != want:
+                raise MeasuredDataError(f"{f.name} has shape {arr.shape}, expected {want}",
+                                        file=self.source)
+            if dtype is np.float64 and not np.all(np.isfinite(arr)):
+                i = int(np.nonzero(~np.all(np.isfinite(arr.reshape(m, -1)), axis=1))[0][0])
+                raise MeasuredDataError(f"{f.name} is not finite at sample {i}", file=self.source)
+            object.__setattr__(self, f.name, arr)
+        for k, v in self.extra.items():
+            if len(v) != m:
+                raise MeasuredDataError(f"extra column {k!r} has {len(v)} rows, expected {m}",
+                                        file=self.source)
+        if not np.all(np.isfinite(t)):
+            i = int(np.nonzero(~np.isfinite(t))[0][0])
+            raise MeasuredDataError(f"time is not finite at sample {i}", file=self.source)
+        bad = np.nonzero(np.diff(t) <= 0)[0]
+        if len(bad):
+            i = int(bad[0]) + 1
+            raise MeasuredDataError(f"time {t[i]:.9g} s at sample {i} is not after the previous "
+                                    f"sample ({t[i - 1]:.9g} s)", file=self.source)
+
+    def __len__(self) -> int:
+        return len(self.t_s)
+
+    @property
+    def has_command(self) -> bool:
+        return self.cmd_pos_mm is not None
+
+    @property
+    def period_s(self) -> float:
+        """Nominal sampling period: the median time step (robust to dropped samples)."""
+        return float(np.median(np.diff(self.t_s))) if len(self) > 1 else math.nan
+
+    def select(self, index) -> "MeasuredTrace":
+        """A new trace with the rows ``index`` (slice, mask or increasing index array)."""
+        changes = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, np.ndarray):
+                changes[f.name] = v[index]
+        changes["extra"] = {k: np.asarray(v)[index] for k, v in self.extra.items()}
+        return replace(self, **changes)
+
+    def shifted(self, time_shift_s: float = 0.0, offset_mm=(0.0, 0.0, 0.0)) -> "MeasuredTrace":
+        """The same samples with ``time_shift_s`` subtracted from the time and ``offset_mm``
+        from the actual and commanded positions (undoing an estimated clock and zero offset)."""
+        off = np.asarray(offset_mm, dtype=np.float64)
+        return replace(self, t_s=self.t_s - time_shift_s, pos_mm=self.pos_mm - off,
+                       cmd_pos_mm=None if self.cmd_pos_mm is None else self.cmd_pos_mm - off)
+
+    def command(self) -> "MeasuredTrace":
+        """The commanded positions as a trace of their own (for the planner part of the gap)."""
+        if self.cmd_pos_mm is None:
+            raise MeasuredDataError("trace has no commanded positions", file=self.source)
+        return MeasuredTrace(t_s=self.t_s, pos_mm=self.cmd_pos_mm, vel_mm_s=self.cmd_vel_mm_s,
+                             acc_mm_s2=self.cmd_acc_mm_s2, line=self.line, segment=self.segment,
+                             source=self.source + " (command)", extra=dict(self.extra))
+
+    def speed_mm_s(self, smooth_s: float = 0.0) -> np.ndarray:
+        """Path speed at each sample: the recorded feed if any, else |axis velocity|, else a
+        central difference of the positions over about ``smooth_s`` (at least one sample each
+        side; differences never span a recording break or a gap longer than 3 periods)."""
+        if self.feed_mm_s is not None:
+            return self.feed_mm_s
+        if self.vel_mm_s is not None:
+            return np.linalg.norm(self.vel_mm_s, axis=1)
+        return derived_speed_mm_s(self.t_s, self.pos_mm, smooth_s, self.segment)
+
+
+def derived_speed_mm_s(t_s: np.ndarray, pos_mm: np.ndarray, smooth_s: float = 0.0,
+                       segment: np.ndarray | None = None) -> np.ndarray:
+    """Speed from positions: |p[i+k] - p[i-k]| / (t[i+k] - t[i-k]) with ``k`` samples such that
+    ``2 k`` periods span about ``smooth_s`` (k >= 1), one-sided at the ends and at breaks; a
+    sample alone between two breaks is differenced with its direct neighbours across them.
+
+    A central difference over a window of width ``W`` divides white position noise of standard
+    deviation sigma into a speed noise of about ``sqrt(2) sigma / W``."""
+    t = np.asarray(t_s, dtype=np.float64)
+    p = np.asarray(pos_mm, dtype=np.float64)
+    m = len(t)
+    if m < 2:
+        return np.zeros(m)
+    dt = float(np.median(np.diff(t)))
+    k = max(1, int(round(0.5 * smooth_s / dt))) if smooth_s > 0 else 1
+    idx = np.arange(m)
+    # recording pieces: breaks at segment changes and at gaps longer than 3 nominal periods
+    brk = np.zeros(m, dtype=np.int64)
+    jumps = np.diff(t) > 3.0 * dt
+    if segment is not None:
+        jumps |= np.diff(np.asarray(segment)) != 0
+    brk[1:] = np.cumsum(jumps)
+    first = np.zeros(brk[-1] + 1, dtype=np.int64)
+    last = np.zeros(brk[-1] + 1, dtype=np.int64)
+    first[brk[::-1]] = idx[::-1]
+    last[brk] = idx
+    lo = np.maximum(idx - k, first[brk])
+    hi = np.minimum(idx + k, last[brk])
+    span = t[hi] - t[lo]
+    d = np.linalg.norm(p[hi] - p[lo], axis=1)
+    # a sample alone between two gaps (e.g. dropouts around it) has no neighbour in its piece:
+    # difference it with its direct neighbours across the gaps rather than report rest
+    alone = span <= 0
+    if np.any(alone):
+        a = idx[alone]
+        lo2, hi2 = np.maximum(a - 1, 0), np.minimum(a + 1, m - 1)
+        span[alone] = t[hi2] - t[lo2]
+        d[alone] = np.linalg.norm(p[hi2] - p[lo2], axis=1)
+    return np.divide(d, span, out=np.zeros(m), where=span > 0)
+
+
+# ---------------------------------------------------------------------------------------------
+# CSV loading
+# ---------------------------------------------------------------------------------------------
+
+def _sniff_delimiter(header_line: str) -> str:
+    counts = {d: header_line.count(d) for d in (",", ";", "\t")}
+    best = max(counts, key=counts.get)
+    return best if counts[best] > 0 else ","
+
+
+def _read_rows(file: str, text: str):
+    """Header and data rows of a CSV text, each data row with its 1-based file line number.
+    Blank lines and lines starting with ``#`` are skipped; fields do not span lines."""
+    lines = text.splitlines()
+    keep = [i for i, ln in enumerate(lines) if ln.strip() and not ln.lstrip().startswith("#")]
+    if not keep:
+        raise MeasuredDataError("empty file (no header row)", file=file)
+    delim = _sniff_delimiter(lines[keep[0]])
+    data = [lines[i] for i in keep]
+    if '"' in text:
+        parsed = list(csv.reader(data, delimiter=delim))
+    else:  # no quoting: a plain split is the same and several times faster
+        parsed = [ln.split(delim) for ln in data]
+    header = [h.strip() for h in parsed[0]]
+    rows = list(zip([i + 1 for i in keep[1:]], parsed[1:]))
+    return header, rows
+
+
+def _find(header: list[str], name: str) -> int | None:
+    if name in header:
+        return header.index(name)
+    low = [h.lower() for h in header]
+    return low.index(name.lower()) if name.lower() in low else None
+
+
+def _resolve_columns(file: str, header: list[str], columns: Mapping[str, str] | None,
+                     units: Mapping[str, str] | None):
+    """Logical key -> (column index, column name, factor to internal units)."""
+    columns = dict(columns or {})
+    units = dict(units or {})
+    for key in list(units):
+        if key in _GROUP_UNIT_KEYS:
+            for k in _GROUP_UNIT_KEYS[key]:
+                units.setdefault(k, units[key])
+            del units[key]
+    unknown = [k for k in list(columns) + list(units) if k not in KEY_KIND]
+    if unknown:
+        raise UsageError(f"unknown trace key {unknown[0]!r} in columns/units "
+                         f"(known: {', '.join(KEY_KIND)}, and 'pos', 'vel' for units)")
+    out: dict[str, tuple[int, str, float]] = {}
+    for key, kind in KEY_KIND.items():
+        if key in columns:
+            name = columns[key]
+            i = _find(header, name)
+            if i is None:
+                raise MeasuredDataError(f"no such column (mapped for {key!r}; header has: "
+                                        f"{', '.join(header)})", file=file, column=name)
+        else:
+            i, name = None, None
+            for cand in DEFAULT_COLUMNS[key]:
+                j = _find(header, cand)
+                if j is not None:
+                    i, name = j, header[j]
+                    break
+            if i is None:
+                continue
+        if kind is None:
+            out[key] = (i, name, 1.0)
+            continue
+        unit = units.get(key) or unit_from_suffix(name, kind)
+        if unit is None:
+            unit = "mm/min" if key == "feed" else _DEFAULT_UNIT[kind]
+        try:
+            factor = unit_factor(kind, unit)
+        except KeyError:
+            raise MeasuredDataError(f"unknown {kind} unit {unit!r} (known: "
+                                    f"{', '.join(UNIT_FACTORS[kind])})", file=file,
+                                    column=name) from None
+        out[key] = (i, name, factor)
+    return out
+
+
+def _parse_column(file: str, rows, index: int, name: str, factor: float) -> np.ndarray:
+    """One column as floats times ``factor``; any bad cell raises naming its line."""
+    try:  # fast path: numpy converts the whole column; on any problem, locate it below
+        out = np.array([r[index] for _, r in rows], dtype=np.float64)
+        if np.all(np.isfinite(out)):
+            return out * factor
+    except (ValueError, IndexError):
+        pass
+    out = np.empty(len(rows))
+    for k, (lineno, row) in enumerate(rows):
+        if index >= len(row):
+            raise MeasuredDataError(f"row has {len(row)} fields, no column '{name}'",
+                                    file=file, line=lineno)
+        cell = row[index].strip()
+        if not cell:
+            raise MeasuredDataError(f"column '{name}' is empty", file=file, line=lineno)
+        try:
+            v = float(cell)
+        except ValueError:
+            raise MeasuredDataError(f"column '{name}' is not a number: {cell!r}", file=file,
+                                    line=lineno) from None
+        if not math.isfinite(v):
+            raise MeasuredDataError(f"column '{name}' is {cell} (not a finite number)", file=file,
+                                    line=lineno)
+        out[k] = v
+    return out * factor
+
+
+def _check_time(file: str, t: np.ndarray, linenos: list[int]) -> None:
+    bad = np.nonzero(np.diff(t) <= 0)[0]
+    if len(bad):
+        i = int(bad[0]) + 1
+        what = "repeats" if t[i] == t[i - 1] else "goes back from"
+        raise MeasuredDataError(f"time {t[i]:.9g} s {what} the previous sample's "
+                                f"({t[i - 1]:.9g} s at line {linenos[i - 1]}): time must "
+                                "increase", file=file, line=linenos[i])
+
+
+def _read_text(file) -> tuple[str, str]:
+    p = FsPath(file)
+    name = str(file)
+    try:
+        return name, p.read_text(encoding="utf-8-sig")
+    except OSError as exc:
+        raise MeasuredDataError(f"cannot read file: {exc.strerror}", file=name) from None
+    except UnicodeDecodeError:
+        raise MeasuredDataError("not a UTF-8 text file", file=name) from None
+
+
+def load_measured_csv(file, *, columns: Mapping[str, str] | None = None,
+                      units: Mapping[str, str] | None = None, time_column: str | None = None,
+                      sample_period_s: float | None = None,
+                      index_column: str | None = None) -> MeasuredTrace:
+    """Load a measured trace from CSV (see the module docstring for the conventions).
+
+    ``columns`` maps logical keys (``t x y z feed vx vy vz x_cmd y_cmd z_cmd line``) to header
+    names; ``time_column`` is a shorthand for ``columns["t"]``. ``units`` gives units per key
+    (or ``pos`` / ``vel`` for all positions / velocities). With ``sample_period_s`` the time is
+    generated as ``row * period`` (``row`` counting data rows from 0, or the value of
+    ``index_column`` when given, so that missing rows appear as dropped samples); a time column
+    is then not read. ``x`` and ``y`` are required; a missing ``z`` is zero.
+    """
+    name, text = _read_text(file)
+    header, rows = _read_rows(name, text)
+    if not rows:
+        raise MeasuredDataError("no data rows after the header", file=name)
+    columns = dict(columns or {})
+    if time_column is not None:
+        columns["t"] = time_column
+    if sample_period_s is not None:
+        if "t" in columns:
+            raise UsageError("give either a time column or sample_period_s, not both")
+        if not (math.isfinite(sample_period_s) and sample_period_s > 0):
+            raise UsageError(f"sample_period_s must be positive, got {sample_period_s!r}")
+    resolved = _resolve_columns(name, header, columns, units)
+    linenos = [ln for ln, _ in rows]
+
+    def col(key):
+        i, cname, factor = resolved[key]
+        return _parse_column(name, rows, i, cname, factor)
+
+    for key in ("x", "y"):
+        if key not in resolved:
+            raise MeasuredDataError(f"missing column for {key!r} (looked for "
+                                    f"{', '.join(DEFAULT_COLUMNS[key])}; map one with "
+                                    f"columns={{'{key}': ...}})", file=name,
+                                    column=DEFAULT_COLUMNS[key][0])
+    if sample_period_s is not None:
+        if index_column is not None:
+            i = _find(header, index_column)
+            if i is None:
+                raise MeasuredDataError("no such index column", file=name, column=index_column)
+            idx = _parse_column(name, rows, i, index_column, 1.0)
+            if np.any(idx != np.round(idx)):
+                k = int(np.nonzero(idx != np.round(idx))[0][0])
+                raise MeasuredDataError(f"index column '{index_column}' is not an integer",
+                                        file=name, line=linenos[k])
+            t = (idx - idx[0]) * sample_period_s
+        else:
+            t = np.arange(len(rows)) * float(sample_period_s)
+    else:
+        if "t" not in resolved:
+            raise MeasuredDataError("missing time column (looked for " +
+                                    ", ".join(DEFAULT_COLUMNS["t"]) +
+                                    "; map one with time_column=..., or give sample_period_s)",
+                                    file=name, column=DEFAULT_COLUMNS["t"][0])
+        t = col("t")
+    _check_time(name, t, linenos)
+
+    pos = np.column_stack([col(k) if k in resolved else np.zeros(len(rows)) for k in AXES])
+    feed = col("feed") if "feed" in resolved else None
+
+    def axis_group(keys, present, message):
+        """The (m, 3) columns ``keys`` (z may be absent: 0), or None if none of ``present`` is
+        given; X and Y must come together."""
+        if not any(k in resolved for k in present):
+            return None
+        for k in keys[:2]:
+            if k not in resolved:
+                raise MeasuredDataError(f"{message} (no column for {k!r})", file=name,
+                                        column=DEFAULT_COLUMNS[k][0])
+        return np.column_stack([col(k) if k in resolved else np.zeros(len(rows)) for k in keys])
+
+    vel = axis_group(("vx", "vy", "vz"), ("vx", "vy"), "axis velocities need both vx and vy")
+    cmd = axis_group(("x_cmd", "y_cmd", "z_cmd"), ("x_cmd", "y_cmd", "z_cmd"),
+                     "commanded positions need x_cmd and y_cmd")
+    line = None
+    if "line" in resolved:
+        raw = col("line")
+        if np.any(raw != np.round(raw)):
+            k = int(np.nonzero(raw != np.round(raw))[0][0])
+            raise MeasuredDataError(f"column '{resolved['line'][1]}' is not an integer line "
+                                    "number", file=name, line=linenos[k])
+        line = raw.astype(np.int64)
+    return MeasuredTrace(t_s=t, pos_mm=pos, feed_mm_s=feed, vel_mm_s=vel, cmd_pos_mm=cmd,
+                         line=line, source=name)
+
+
+def write_measured_csv(trace: MeasuredTrace, file, *, header_comment: str = "") -> None:
+    """Write a trace in the default column convention (``t_s, x_mm, ...``, feed in mm/min);
+    :func:`load_measured_csv` reads it back."""
+    cols = [("t_s", trace.t_s)]
+    cols += [(f"{a}_mm", trace.pos_mm[:, i]) for i, a in enumerate(AXES)]
+    if trace.feed_mm_s is not None:
+        cols.append(("feed_mm_min", trace.feed_mm_s * 60.0))
+    if trace.vel_mm_s is not None:
+        cols += [(f"v{a}_mm_s", trace.vel_mm_s[:, i]) for i, a in enumerate(AXES)]
+    if trace.cmd_pos_mm is not None:
+        cols += [(f"{a}_cmd_mm", trace.cmd_pos_mm[:, i]) for i, a in enumerate(AXES)]
+    data = np.column_stack([c for _, c in cols])
+    with open(file, "w", encoding="utf-8", newline="") as fh:
+        for h in header_comment.splitlines():
+            fh.write(f"# {h}\n")
+        fh.write(",".join(n for n, _ in cols) + ("," + "line" if trace.line is not None else "")
+                 + "\n")
+        for r in range(len(trace)):
+            cells = [repr(float(v)) for v in data[r]]
+            if trace.line is not None:
+                cells.append(str(int(trace.line[r])))
+            fh.write(",".join(cells) + "\n")
+
+
+# ---------------------------------------------------------------------------------------------
+# University of Michigan SMART "CNC Mill Tool Wear" files
+# ---------------------------------------------------------------------------------------------
+
+UMICH_PERIOD_S = 0.1           # rows are nominally 100 ms apart (SOURCE.md); no time column
+UMICH_IDLE_FEED_MM_S = 50.0    # M1_CURRENT_FEEDRATE reads 50 in rapids / preparation / idle
+UMICH_IDLE_X_MM = 198.0        # X1_ActualPosition reads 198 at the idle (home) state
+
+
+def load_umich_csv(file, *, drop_unreliable: bool = True) -> MeasuredTrace:
+    """Load one UMich SMART mill file (``experiment_NN.csv``) as a :class:`MeasuredTrace`.
+
+    Time is ``row index * 0.1 s`` (the files have no time column). Actual and commanded
+    positions (mm), velocities (mm/s) and accelerations (mm/s^2) of X1/Y1/Z1 are kept;
+    ``line`` is ``M1_sequence_number``; ``extra`` holds ``programmed_feed_mm_s``
+    (``M1_CURRENT_FEEDRATE``, mm/s) and ``process`` (``Machining_Process`` labels).
+
+    With ``drop_unreliable`` the rows the source calls unreliable are removed: feed reading 50
+    or ``X1_ActualPosition`` reading 198 (idle, start and rapid states). The third condition of
+    the source (``M1_CURRENT_PROGRAM_NUMBER`` not 0) is not applied: it reads 1 on every row of
+    the copied files. The files are stitched from several recordings (positions and sequence
+    numbers jump after idle stretches); ``segment`` numbers the contiguous runs of kept rows.
+    Caveat (SOURCE.md): values have 3 significant figures, so positions above 100 mm have 1 mm
+    resolution; use the velocities for servo analysis.
+    """
+    name, text = _read_text(file)
+    header, rows = _read_rows(name, text)
+    if not rows:
+        raise MeasuredDataError("no data rows after the header", file=name)
+    linenos = [ln for ln, _ in rows]
+
+    def col(cname, factor=1.0):
+        i = _find(header, cname)
+        if i is None:
+            raise MeasuredDataError("missing column (not a UMich SMART mill file?)", file=name,
+                                    column=cname)
+        return _parse_column(name, rows, i, cname, factor)
+
+    idx = col(header[0]) if header[0] == "" else np.arange(len(rows), dtype=float)
+    t = (idx - idx[0]) * UMICH_PERIOD_S
+    _check_time(name, t, linenos)
+
+    def axes3(signal):
+        return np.column_stack([col(f"{a}1_{signal}") for a in ("X", "Y", "Z")])
+
+    act_pos, cmd_pos = axes3("ActualPosition"), axes3("CommandPosition")
+    act_vel, cmd_vel = axes3("ActualVelocity"), axes3("CommandVelocity")
+    act_acc, cmd_acc = axes3("ActualAcceleration"), axes3("CommandAcceleration")
+    feed_prog = col("M1_CURRENT_FEEDRATE")
+    seq = col("M1_sequence_number").astype(np.int64)
+    i_proc = _find(header, "Machining_Process")
+    process = np.array([r[i_proc].strip() if i_proc is not None and i_proc < len(r) else ""
+                        for _, r in rows], dtype=object)
+
+    keep = np.ones(len(rows), dtype=bool)
+    if drop_unreliable:
+        keep = (feed_prog != UMICH_IDLE_FEED_MM_S) & (act_pos[:, 0] != UMICH_IDLE_X_MM)
+        if not np.any(keep):
+            raise MeasuredDataError("no reliable rows (all idle: feed 50 or X at 198)", file=name)
+    kept = np.nonzero(keep)[0]
+    seg = np.zeros(len(kept), dtype=np.int64)
+    seg[1:] = np.cumsum(np.diff(kept) > 1)
+    return MeasuredTrace(t_s=t[kept], pos_mm=act_pos[kept], vel_mm_s=act_vel[kept],
+                         acc_mm_s2=act_acc[kept], cmd_pos_mm=cmd_pos[kept],
+                         cmd_vel_mm_s=cmd_vel[kept], cmd_acc_mm_s2=cmd_acc[kept],
+                         line=seq[kept], segment=seg, source=name,
+                         extra={"programmed_feed_mm_s": feed_prog[kept],
+                                "process": process[kept]})
+
+
+# ---------------------------------------------------------------------------------------------
+# Published summary values (TOML)
+# ---------------------------------------------------------------------------------------------
+
+#: TOML key base -> (quantity kind, {unit suffix: factor to the stored unit}, stored field)
+_VELOCITY_SUFFIXES = {"m_min": 1000.0 / 60.0, "mm_min": 1.0 / 60.0, "mm_s": 1.0}
+_SUMMARY_QUANTITIES: dict[str, tuple[dict[str, float], str]] = {
+    "radius": ({"mm": 1.0, "um": 1e-3}, "radius_mm"),
+    "radius_before": ({"mm": 1.0}, "radius_before_mm"),
+    "radius_after": ({"mm": 1.0}, "radius_after_mm"),
+    "programmed_feed": (_VELOCITY_SUFFIXES, "programmed_feed_mm_s"),
+    "feed": (_VELOCITY_SUFFIXES, "feed_mm_s"),
+    "steady_feed": (_VELOCITY_SUFFIXES, "steady_feed_mm_s"),
+    "max_feed": (_VELOCITY_SUFFIXES, "max_feed_mm_s"),
+    "max_feed_below": (_VELOCITY_SUFFIXES, "max_feed_below_mm_s"),
+    "normal_accel": ({"m_s2": 1000.0, "mm_s2": 1.0}, "normal_accel_mm_s2"),
+    "tangential_jerk": ({"m_s3": 1000.0, "mm_s3": 1.0}, "tangential_jerk_mm_s3"),
+    "G": ({"um": 1.0, "mm": 1000.0}, "G_um"),
+    "Fmax": ({"um": 1.0, "mm": 1000.0}, "Fmax_um"),
+    "Fmin": ({"um": 1.0, "mm": 1000.0}, "Fmin_um"),
+    "time": ({"s": 1.0, "ms": 1e-3, "min": 60.0}, "time_s"),
+    "angle": ({"deg": 1.0, "rad": 180.0 / math.pi}, "angle_deg"),
+    "incline": ({"deg": 1.0, "rad": 180.0 / math.pi}, "incline_deg"),
+}
+_COMMON_TEXT_KEYS = {"id", "program", "source", "note", "trajectory"}
+_COMMON_BOOL_KEYS = {"reaches_programmed", "has_steady_phase", "has_ramps"}
+#: entry table -> allowed quantity bases
+_ENTRY_QUANTITIES = {
+    "circle": {"radius", "programmed_feed", "steady_feed", "normal_accel", "tangential_jerk",
+               "G", "Fmax", "Fmin", "time"},
+    "block": {"radius", "programmed_feed", "steady_feed", "max_feed", "max_feed_below",
+              "normal_accel", "incline", "time"},
+    "transition": {"radius_before", "radius_after", "angle", "incline", "programmed_feed", "feed"},
+    "cycle": {"programmed_feed", "time"},
+}
+_ENTRY_INT_KEYS = {"block": {"block", "line"}, "circle": set(), "transition": {"block", "line"},
+                   "cycle": set()}
+
+
+@dataclass(frozen=True)
+class SummaryEntry:
+    """One published measurement. ``kind`` is the TOML table (circle, block, transition,
+    cycle); ``values`` maps stored field names (with internal units in the name: ``G_um``,
+    ``steady_feed_mm_s``, ``radius_mm``, ``time_s``) to numbers; ``flags`` maps boolean keys
+    (``reaches_programmed``, ``has_steady_phase``, ``has_ramps``) to bools."""
+
+    kind: str
+    id: str
+    values: Mapping[str, float]
+    flags: Mapping[str, bool] = field(default_factory=dict)
+    ints: Mapping[str, int] = field(default_factory=dict)
+    program: str | None = None
+    trajectory: str | None = None
+    source: str = ""
+    note: str = ""
+
+    def get(self, name: str, default=None):
+        return self.values.get(name, default)
+
+    def __getattr__(self, name: str):
+        # convenient access: entry.G_um, entry.radius_mm (None when not published)
+        if name.startswith("_"):
+            raise AttributeError(name)
+        values = object.__getattribute__(self, "values")
+        if name in values:
+            return values[name]
+        if name in {f for _, f in _SUMMARY_QUANTITIES.values()}:
+            return None
+        raise AttributeError(name)
+
+
+@dataclass(frozen=True)
+class MeasuredSummary:
+    """Published measured values of one machine / paper (for when no trace exists)."""
+
+    source: str
+    description: str
+    machine: str | None
+    entries: tuple[SummaryEntry, ...]
+
+    def of_kind(self, kind: str) -> tuple[SummaryEntry, ...]:
+        return tuple(e for e in self.entries if e.kind == kind)
+
+    @property
+    def circles(self):
+        return self.of_kind("circle")
+
+    @property
+    def blocks(self):
+        return self.of_kind("block")
+
+    @property
+    def transitions(self):
+        return self.of_kind("transition")
+
+    @property
+    def cycles(self):
+        return self.of_kind("cycle")
+
+    def __getitem__(self, entry_id: str) -> SummaryEntry:
+        for e in self.entries:
+            if e.id == entry_id:
+                return e
+        raise KeyError(entry_id)
+
+
+def _split_quantity_key(key: str) -> tuple[str, str] | None:
+    """``steady_feed_m_min`` -> (``steady_feed``, ``m_min``) for a known base, longest base first."""
+    for base in sorted(_SUMMARY_QUANTITIES, key=len, reverse=True):
+        if key.startswith(base + "_"):
+            return base, key[len(base) + 1:]
+    return None
+
+
+def summary_from_dict(data: Mapping[str, Any], file: str = "<summary>") -> MeasuredSummary:
+    """Validate a parsed summary TOML; the first problem raises with its key path."""
+
+    def fail(path: str, message: str):
+        raise MeasuredDataError(f"{path}: {message}", file=file)
+
+    for key in data:
+        if key not in ("summary", *_ENTRY_QUANTITIES):
+            fail(key, f"unknown table (known: summary, {', '.join(_ENTRY_QUANTITIES)})")
+    head = data.get("summary", {})
+    if not isinstance(head, dict):
+        fail("summary", "must be a table")
+    for key in head:
+        if key not in ("description", "machine", "source"):
+            fail(f"summary.{key}", "unknown key (known: description, machine, source)")
+        if not isinstance(head[key], str):
+            fail(f"summary.{key}", "must be a string")
+    entries: list[SummaryEntry] = []
+    seen: dict[str, str] = {}
+    for kind, allowed in _ENTRY_QUANTITIES.items():
+        items = data.get(kind, [])
+        if not isinstance(items, list) or not all(isinstance(x, dict) for x in items):
+            fail(kind, f"must be an array of tables ([[{kind}]])")
+        for n, item in enumerate(items):
+            path = f"{kind}[{n}]"
+            values: dict[str, float] = {}
+            flags: dict[str, bool] = {}
+            ints: dict[str, int] = {}
+            text: dict[str, str] = {}
+            for key, v in item.items():
+                kp = f"{path}.{key}"
+                if key in _COMMON_TEXT_KEYS:
+                    if not isinstance(v, str) or not v:
+                        fail(kp, "must be a non-empty string")
+                    text[key] = v
+                elif key in _COMMON_BOOL_KEYS:
+                    if not isinstance(v, bool):
+                        fail(kp, "must be true or false")
+                    flags[key] = v
+                elif key in _ENTRY_INT_KEYS[kind]:
+                    if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                        fail(kp, "must be a non-negative integer")
+                    ints[key] = v
+                else:
+                    split = _split_quantity_key(key)
+                    if split is None or split[0] not in allowed:
+                        known = ", ".join(sorted(f"{b}_<unit>" for b in allowed))
+                        fail(kp, f"unknown key (known quantities for [[{kind}]]: {known})")
+                    base, suffix = split
+                    factors, stored = _SUMMARY_QUANTITIES[base]
+                    if suffix not in factors:
+                        fail(kp, f"unknown unit '{suffix}' for {base} (use {base}_"
+                                 + f" or {base}_".join(factors) + ")")
+                    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                        fail(kp, f"must be a number, got {v!r}")
+                    if stored in values:
+                        fail(kp, f"{base} given twice (in two units)")
+                    if base in ("radius", "radius_before", "radius_after", "time") and v <= 0:
+                        fail(kp, "must be positive")
+                    if base.endswith("feed") and v < 0:
+                        fail(kp, "must not be negative")
+                    values[stored] = float(v) * factors[suffix]
+            if "id" not in text:
+                fail(f"{path}.id", "missing key")
+            if text["id"] in seen:
+                fail(f"{path}.id", f"duplicate id {text['id']!r} (also {seen[text['id']]})")
+            seen[text["id"]] = path
+            if kind == "circle" and "radius_mm" not in values:
+                fail(f"{path}.radius_mm", "missing key (a circle needs its nominal radius)")
+            if kind == "transition":
+                for need in ("radius_before_mm", "radius_after_mm"):
+                    if need not in values:
+                        fail(f"{path}.{need}", "missing key")
+            if kind == "cycle" and "time_s" not in values:
+                fail(f"{path}.time_s", "missing key")
+            if "G_um" in values and values["G_um"] < 0:
+                fail(f"{path}.G_um", "circularity G cannot be negative")
+            if "Fmax_um" in values and "Fmin_um" in values and values["Fmax_um"] < values["Fmin_um"]:
+                fail(f"{path}.Fmax_um", "Fmax is below Fmin")
+            entries.append(SummaryEntry(kind=kind, id=text["id"], values=values, flags=flags,
+                                        ints=ints, program=text.get("program"),
+                                        trajectory=text.get("trajectory"),
+                                        source=text.get("source", ""), note=text.get("note", "")))
+    return MeasuredSummary(source=head.get("source", file), description=head.get("description", ""),
+                           machine=head.get("machine"), entries=tuple(entries))
+
+
+def load_measured_summary(file) -> MeasuredSummary:
+    """Load published measured values from a TOML file (schema: ``measured/paper_table3.toml``).
+
+    Tables ``[[circle]]`` (ISO 230-4 circular tests: ``radius_mm``, ``programmed_feed_m_min``,
+    ``steady_feed_m_min``, ``G_um``, ``Fmax_um``, ``Fmin_um``, ``normal_accel_m_s2`` ...),
+    ``[[block]]`` (per-block feeds), ``[[transition]]`` (block-transition feeds) and
+    ``[[cycle]]`` (cycle times); every key carries its unit (``_m_min``, ``_mm_min``,
+    ``_mm_s``; ``_um``; ``_s``, ``_ms``). Each entry has an ``id`` and optionally ``program``,
+    ``trajectory``, ``source`` (citation) and ``note``.
+    """
+    name, text = _read_text(file)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise MeasuredDataError(f"not valid TOML: {exc}", file=name) from None
+    return summary_from_dict(data, name)

@@ -1,0 +1,1 @@
+"""NC front end: program text -> Program (parse) -> Path (interpret)."""

@@ -1,0 +1,1 @@
+"""Planning: Path -> per-block limits -> look-ahead feed law (Motion) -> samples."""

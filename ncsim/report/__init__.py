@@ -1,0 +1,1 @@
+"""Reports: summaries, pass/fail checks, machine explanations, plots, CSV traces."""
