@@ -3,7 +3,7 @@
 Every error renders as a single line that names where the problem is:
 
 * program errors:   ``FILE:LINE:COL: message``
-* machine errors:   ``FILE: key.path: message``
+* TOML files (machine, setup, published values; ``ncsim.config``): ``FILE: key.path: message``
 * measured data:    ``FILE:LINE: message`` or ``FILE: column 'x': message``
 
 The library raises; only ``ncsim.cli`` prints and exits.
@@ -60,10 +60,11 @@ class NcUnsupportedError(NcSemanticError):
     """The program uses something real but outside what ncsim simulates (e.g. TRAORI)."""
 
 
-class MachineSpecError(NcsimError):
-    """A machine description (TOML) is missing, mistyped or out of range."""
+class ConfigError(NcsimError):
+    """A TOML file (read by ``ncsim.config``) is unreadable, or a key in it is missing,
+    unknown, mistyped or out of range: ``FILE: key.path: message``."""
 
-    def __init__(self, message: str, file: str = "<machine>", key: str = ""):
+    def __init__(self, message: str, file: str = "<config>", key: str = ""):
         super().__init__(message)
         self.message = message
         self.file = file
@@ -77,22 +78,32 @@ class MachineSpecError(NcsimError):
         return self.render()
 
 
+class MachineSpecError(ConfigError):
+    """A machine description or a setup file (TOML) is missing, mistyped or out of range."""
+
+    def __init__(self, message: str, file: str = "<machine>", key: str = ""):
+        super().__init__(message, file, key)
+
+
 class MeasuredDataError(NcsimError):
-    """A measured trace or summary file cannot be used."""
+    """A measured trace, or a file of published values, cannot be used."""
 
     def __init__(self, message: str, file: str = "<measured>", line: int | None = None,
-                 column: str | None = None):
+                 column: str | None = None, key: str = ""):
         super().__init__(message)
         self.message = message
         self.file = file
         self.line = line
         self.column = column
+        self.key = key
 
     def render(self) -> str:
         if self.line is not None:
             return f"{self.file}:{self.line}: {self.message}"
         if self.column is not None:
             return f"{self.file}: column '{self.column}': {self.message}"
+        if self.key:
+            return f"{self.file}: {self.key}: {self.message}"
         return f"{self.file}: {self.message}"
 
     def __str__(self) -> str:

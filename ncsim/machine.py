@@ -7,8 +7,6 @@ See ``machines/mikron.toml`` for the reference file and README "Machine file" fo
 """
 from __future__ import annotations
 
-import math
-import tomllib
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path as FsPath
@@ -16,8 +14,10 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ncsim.config import Problems, non_negative, open_share, positive, read_toml, share, share0
 from ncsim.errors import MachineSpecError
-from ncsim.units import m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min, ms_to_s, s_to_ms
+from ncsim.units import (m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_s2_to_m_s2, mm_s3_to_m_s3,
+                         mm_s_to_m_min, ms_to_s, s2_to_um_per_m_s2, s_to_ms, um_per_m_s2_to_s2)
 
 AXIS_NAMES = ("X", "Y", "Z")
 WORK_OFFSET_NAMES = ("G54", "G55", "G56", "G57")
@@ -118,141 +118,54 @@ def _ro(a: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------------------------
-# Loading and validation
+# Loading and validation (through ncsim.config: one reader, one error policy)
 # ---------------------------------------------------------------------------------------------
-
-def _positive(v: float) -> str | None:
-    return None if v > 0 and math.isfinite(v) else "must be a positive number"
-
-
-def _non_negative(v: float) -> str | None:
-    return None if v >= 0 and math.isfinite(v) else "must be zero or positive"
-
-
-def _share(v: float) -> str | None:
-    return None if 0.0 < v <= 1.0 else "must be in (0, 1]"
-
-
-def _share0(v: float) -> str | None:
-    return None if 0.0 <= v <= 1.0 else "must be in [0, 1]"
-
-
-def _open_share(v: float) -> str | None:
-    return None if 0.0 < v < 1.0 else "must be in (0, 1), exclusive"
-
 
 # (toml key, spec field, required, check, converter to internal units)
 _AXIS_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
-    ("max_velocity_m_min", "max_velocity_mm_s", True, _positive, m_min_to_mm_s),
-    ("max_accel_m_s2", "max_accel_mm_s2", True, _positive, m_s2_to_mm_s2),
-    ("max_jerk_m_s3", "max_jerk_mm_s3", True, _positive, m_s3_to_mm_s3),
-    ("position_gain_1_s", "position_gain_1_s", False, _positive, float),
+    ("max_velocity_m_min", "max_velocity_mm_s", True, positive, m_min_to_mm_s),
+    ("max_accel_m_s2", "max_accel_mm_s2", True, positive, m_s2_to_mm_s2),
+    ("max_jerk_m_s3", "max_jerk_mm_s3", True, positive, m_s3_to_mm_s3),
+    ("position_gain_1_s", "position_gain_1_s", False, positive, float),
 )
 
 _NCU_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
-    ("ipo_cycle_ms", "ipo_cycle_s", True, _positive, ms_to_s),
-    ("curvilinear_jerk_m_s3", "curvilinear_jerk_mm_s3", True, _positive, m_s3_to_mm_s3),
-    ("tangential_jerk_share", "tangential_jerk_share", True, _share, float),
-    ("central_jerk_share", "central_jerk_share", True, _share0, float),
-    ("transition_time_ms", "transition_time_s", True, _positive, ms_to_s),
-    ("lookahead_blocks", "lookahead_blocks", True, None, int),
-    ("normal_accel_share", "normal_accel_share", False, _open_share, float),
-    ("corner_velocity_jump_factor", "corner_velocity_jump_factor", False, _positive, float),
-    ("exact_stop_fine_settle_ms", "exact_stop_fine_settle_s", False, _non_negative, ms_to_s),
-    ("exact_stop_coarse_settle_ms", "exact_stop_coarse_settle_s", False, _non_negative, ms_to_s),
-    ("drive_speed_point_ratio", "drive_speed_point_ratio", False, _share, float),
-    ("drive_accel_reduction_ratio", "drive_accel_reduction_ratio", False, _share0, float),
-    ("circle_error_const_mm", "circle_error_const_mm", False, _positive, float),
-    ("circle_error_factor", "circle_error_factor", False, _non_negative, float),
+    ("ipo_cycle_ms", "ipo_cycle_s", True, positive, ms_to_s),
+    ("curvilinear_jerk_m_s3", "curvilinear_jerk_mm_s3", True, positive, m_s3_to_mm_s3),
+    ("tangential_jerk_share", "tangential_jerk_share", True, share, float),
+    ("central_jerk_share", "central_jerk_share", True, share0, float),
+    ("transition_time_ms", "transition_time_s", True, positive, ms_to_s),
+    ("lookahead_blocks", "lookahead_blocks", True, None, int),   # an integer >= 1
+    ("normal_accel_share", "normal_accel_share", False, open_share, float),
+    ("corner_velocity_jump_factor", "corner_velocity_jump_factor", False, positive, float),
+    ("exact_stop_fine_settle_ms", "exact_stop_fine_settle_s", False, non_negative, ms_to_s),
+    ("exact_stop_coarse_settle_ms", "exact_stop_coarse_settle_s", False, non_negative, ms_to_s),
+    ("drive_speed_point_ratio", "drive_speed_point_ratio", False, share, float),
+    ("drive_accel_reduction_ratio", "drive_accel_reduction_ratio", False, share0, float),
+    ("circle_error_const_mm", "circle_error_const_mm", False, positive, float),
+    ("circle_error_factor", "circle_error_factor", False, non_negative, float),
 )
 
 _STRUCTURE_KEYS = (
-    ("radial_compliance_um_per_m_s2", "radial_compliance_mm_per_mm_s2", False, _non_negative,
-     lambda v: v * 1e-3 / 1e3),  # um per (m/s^2) -> mm per (mm/s^2)
+    ("radial_compliance_um_per_m_s2", "radial_compliance_mm_per_mm_s2", False, non_negative,
+     um_per_m_s2_to_s2),
 )
 
 
-class _Collector:
-    def __init__(self, file: str):
-        self.file = file
-        self.problems: list[tuple[str, str]] = []
-
-    def add(self, key: str, message: str) -> None:
-        self.problems.append((key, message))
-
-    def raise_if_any(self) -> None:
-        if not self.problems:
-            return
-        key, message = self.problems[0]
-        extra = ""
-        if len(self.problems) > 1:
-            others = "; ".join(f"{k}: {m}" for k, m in self.problems[1:])
-            extra = f" (and {len(self.problems) - 1} more: {others})"
-        raise MachineSpecError(message + extra, file=self.file, key=key)
-
-
-def _number(c: _Collector, table: dict, prefix: str, key: str, required: bool, check, convert,
-            integer: bool = False):
-    full = f"{prefix}.{key}"
-    if key not in table:
-        if required:
-            c.add(full, "missing key")
-        return None
-    v = table[key]
-    if integer:
-        if isinstance(v, bool) or not isinstance(v, int):
-            c.add(full, f"must be an integer, got {type(v).__name__} {v!r}")
-            return None
-        if v < 1:
-            c.add(full, "must be an integer >= 1")
-            return None
-        return v
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        c.add(full, f"must be a number, got {type(v).__name__} {v!r}")
-        return None
-    v = float(v)
-    if check is not None:
-        problem = check(v)
-        if problem:
-            c.add(full, f"{problem}, got {v:g}")
-            return None
-    return convert(v)
-
-
-def _unknown(c: _Collector, table: dict, prefix: str, known) -> None:
-    for key in table:
-        if key not in known:
-            c.add(f"{prefix}.{key}" if prefix else key, "unknown key")
-
-
-def _table(c: _Collector, data: dict, key: str, required: bool) -> dict:
-    if key not in data:
-        if required:
-            c.add(key, "missing table")
-        return {}
-    v = data[key]
-    if not isinstance(v, dict):
-        c.add(key, f"must be a table, got {type(v).__name__}")
-        return {}
-    return v
-
-
 def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineSpec:
-    c = _Collector(file)
-    _unknown(c, data, "", {"machine", "axes", "ncu", "work_offsets", "structure"})
+    """Validate a parsed machine file; every problem is collected into one
+    :class:`~ncsim.errors.MachineSpecError`."""
+    c = Problems(file, MachineSpecError)
+    c.unknown(data, "", {"machine", "axes", "ncu", "work_offsets", "structure"})
 
-    mtab = _table(c, data, "machine", True)
-    _unknown(c, mtab, "machine", {"name", "description"})
-    name = mtab.get("name")
-    if "machine" in data and not isinstance(name, str):
-        c.add("machine.name", "missing key" if name is None else "must be a string")
-    description = mtab.get("description", "")
-    if not isinstance(description, str):
-        c.add("machine.description", "must be a string")
+    mtab = c.table(data, "machine", required=True)
+    c.unknown(mtab, "machine", {"name", "description"})
+    name = c.string(mtab, "machine", "name", required="machine" in data)
+    description = c.string(mtab, "machine", "description") or ""
 
-    atab = _table(c, data, "axes", True)
+    atab = c.table(data, "axes", required=True)
     axes = []
-    _unknown(c, atab, "axes", set(AXIS_NAMES))
+    c.unknown(atab, "axes", set(AXIS_NAMES))
     for ax in AXIS_NAMES:
         prefix = f"axes.{ax}"
         if "axes" in data and ax not in atab:
@@ -262,37 +175,37 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
         if not isinstance(t, dict):
             c.add(prefix, "must be a table")
             continue
-        _unknown(c, t, prefix, {k for k, *_ in _AXIS_KEYS})
-        values = {f: _number(c, t, prefix, k, req, chk, conv) for k, f, req, chk, conv in _AXIS_KEYS}
+        c.unknown(t, prefix, {k for k, *_ in _AXIS_KEYS})
+        values = {f: c.number(t, prefix, k, required=req, check=chk, convert=conv)
+                  for k, f, req, chk, conv in _AXIS_KEYS}
         if all(values[f] is not None for _, f, req, *_ in _AXIS_KEYS if req):
             axes.append(AxisSpec(name=ax, **values))
 
-    ntab = _table(c, data, "ncu", True)
-    _unknown(c, ntab, "ncu", {k for k, *_ in _NCU_KEYS})
+    ntab = c.table(data, "ncu", required=True)
+    c.unknown(ntab, "ncu", {k for k, *_ in _NCU_KEYS})
     ncu_values = {}
     for k, f, req, chk, conv in _NCU_KEYS:
-        v = _number(c, ntab, "ncu", k, req and "ncu" in data, chk, conv,
-                    integer=(k == "lookahead_blocks"))
+        if conv is int:
+            v = c.integer(ntab, "ncu", k, required=req and "ncu" in data)
+        else:
+            v = c.number(ntab, "ncu", k, required=req and "ncu" in data, check=chk, convert=conv)
         if v is not None:
             ncu_values[f] = v
 
-    wtab = _table(c, data, "work_offsets", False)
-    _unknown(c, wtab, "work_offsets", set(WORK_OFFSET_NAMES))
+    wtab = c.table(data, "work_offsets")
+    c.unknown(wtab, "work_offsets", set(WORK_OFFSET_NAMES))
     offsets = []
     for key in WORK_OFFSET_NAMES:
         if key in wtab:
-            v = wtab[key]
-            if (not isinstance(v, list) or len(v) != 3
-                    or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)):
-                c.add(f"work_offsets.{key}", "must be a list of three numbers [x_mm, y_mm, z_mm]")
-            else:
-                offsets.append((key, tuple(float(x) for x in v)))
+            v = c.xyz_mm(wtab, "work_offsets", key)
+            if v is not None:
+                offsets.append((key, v))
 
-    stab = _table(c, data, "structure", False)
-    _unknown(c, stab, "structure", {k for k, *_ in _STRUCTURE_KEYS})
+    stab = c.table(data, "structure")
+    c.unknown(stab, "structure", {k for k, *_ in _STRUCTURE_KEYS})
     svalues = {}
     for k, f, req, chk, conv in _STRUCTURE_KEYS:
-        v = _number(c, stab, "structure", k, req, chk, conv)
+        v = c.number(stab, "structure", k, required=req, check=chk, convert=conv)
         if v is not None:
             svalues[f] = v
 
@@ -308,9 +221,10 @@ def bundled_machines() -> dict[str, str]:
     for entry in sorted(resources.files("ncsim.machines").iterdir(), key=lambda p: p.name):
         if entry.name.endswith(".toml"):
             try:
-                spec = machine_from_dict(tomllib.loads(entry.read_text()), entry.name)
+                data = read_toml(entry, "machine file", name=entry.name, error=MachineSpecError)
+                spec = machine_from_dict(data, entry.name)
                 out[entry.name[:-5]] = spec.description or spec.name
-            except (MachineSpecError, tomllib.TOMLDecodeError):
+            except MachineSpecError:
                 out[entry.name[:-5]] = "(invalid)"
     return out
 
@@ -319,24 +233,15 @@ def load_machine(name_or_path: str | FsPath) -> MachineSpec:
     """Load a machine from a TOML path, or by the name of a bundled machine (``mikron``)."""
     p = FsPath(name_or_path)
     if p.suffix == ".toml" or p.exists():
-        file = str(p)
-        try:
-            text = p.read_text(encoding="utf-8")
-        except OSError as exc:
-            raise MachineSpecError(f"cannot read machine file: {exc.strerror}", file=file) from None
+        source, file = p, str(p)
     else:
-        entry = resources.files("ncsim.machines") / f"{p.name}.toml"
-        if not entry.is_file():
+        source = resources.files("ncsim.machines") / f"{p.name}.toml"
+        if not source.is_file():
             names = ", ".join(bundled_machines()) or "none"
             raise MachineSpecError(f"no machine file and no bundled machine named {str(name_or_path)!r} "
                                    f"(bundled: {names})", file=str(name_or_path))
         file = f"{p.name}.toml (bundled)"
-        text = entry.read_text(encoding="utf-8")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise MachineSpecError(f"not valid TOML: {exc}", file=file) from None
-    return machine_from_dict(data, file)
+    return machine_from_dict(read_toml(source, "machine file", name=file, error=MachineSpecError), file)
 
 
 def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
@@ -377,7 +282,7 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
             lines.append(f"{key} = [{_f(x)}, {_f(y)}, {_f(z)}]")
     if spec.structure.radial_compliance_mm_per_mm_s2:
         lines += ["", "[structure]",
-                  f"radial_compliance_um_per_m_s2 = {_f(spec.structure.radial_compliance_mm_per_mm_s2 * 1e6)}"]
+                  f"radial_compliance_um_per_m_s2 = {_f(s2_to_um_per_m_s2(spec.structure.radial_compliance_mm_per_mm_s2))}"]
     return "\n".join(lines) + "\n"
 
 

@@ -1,21 +1,34 @@
 """The pipeline in one call: program -> path (interpret) -> limits -> feed law (plan).
 
-Sampling (``ncsim.sample``) is left to the caller: a summary needs only the planned motion,
-which keeps million-block runs cheap.
+:func:`simulate` runs one program; :func:`run_batch` runs many, in parallel processes on this
+machine or on a Dask distributed cluster. Sampling (``ncsim.plan.sample``) is left to the
+caller: a summary needs only the planned motion, which keeps million-block runs cheap.
+
+Batch runs simulate each program in its own task (:func:`simulate_one`); a task never raises
+for a bad program: the error's one-line rendering is part of its result, so one broken file
+does not stop a CI batch. Results come back in completion order and are reported in input
+order.
 """
 from __future__ import annotations
 
+import glob
+import os
 import time
-from dataclasses import dataclass, field
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass, field
 from pathlib import Path as FsPath
+from typing import Callable, Iterable
 
-from ncsim.errors import NcWarning
-from ncsim.nc.interpret import InterpretResult, interpret_file, interpret_text
-from ncsim.plan.limits import PathLimits, path_limits
+from ncsim.errors import NcsimError, NcWarning, UsageError
 from ncsim.machine import MachineSpec, load_machine
 from ncsim.motion import FULL_MODEL, ModelOptions, Motion
+from ncsim.nc.interpret import InterpretResult, interpret_file, interpret_text
 from ncsim.path import Path
+from ncsim.plan.limits import PathLimits, path_limits
 from ncsim.plan.lookahead import plan
+
+#: the stages :func:`simulate` reports to its ``progress`` callback, in order
+STAGES = ("interpret", "plan")
 
 
 @dataclass(frozen=True)
@@ -47,15 +60,29 @@ def resolve_machine(machine: MachineSpec | str | FsPath) -> MachineSpec:
 
 def simulate(program: str | FsPath, machine: MachineSpec | str | FsPath,
              options: ModelOptions = FULL_MODEL, *, text: str | None = None,
-             setup_offsets: dict | None = None) -> Simulation:
-    """Interpret ``program`` (a file, or ``text`` named ``program``) and plan it on ``machine``."""
+             setup_offsets: dict | str | FsPath | None = None,
+             progress: Callable[[str], None] | None = None) -> Simulation:
+    """Interpret ``program`` (a file, or ``text`` named ``program``) and plan it on ``machine``
+    (a :class:`MachineSpec`, a TOML file or a bundled machine's name).
+
+    ``setup_offsets`` are work offsets (``{"G54": (x, y, z)}``) or a setup TOML file that gives
+    them (:func:`ncsim.config.load_setup`). ``progress`` is called with the name of each stage
+    of :data:`STAGES` as it begins (e.g. to draw a progress bar)."""
+    from ncsim.config import load_setup
+
     spec = resolve_machine(machine)
+    if isinstance(setup_offsets, (str, FsPath)):
+        setup_offsets = load_setup(setup_offsets)
+    if progress is not None:
+        progress("interpret")
     t0 = time.perf_counter()
     if text is None:
         result = interpret_file(program, spec, setup_offsets=setup_offsets)
     else:
         result = interpret_text(text, str(program), spec, setup_offsets=setup_offsets)
     t1 = time.perf_counter()
+    if progress is not None:
+        progress("plan")
     sim = simulate_path(result.path, spec, options, program=str(program))
     stages = {"interpret_s": t1 - t0, **sim.stage_time_s}
     return Simulation(program=str(program), machine=spec, options=options, interpreted=result,
@@ -64,7 +91,7 @@ def simulate(program: str | FsPath, machine: MachineSpec | str | FsPath,
 
 def simulate_path(path: Path, machine: MachineSpec | str | FsPath,
                   options: ModelOptions = FULL_MODEL, *, program: str = "<path>") -> Simulation:
-    """Plan an already interpreted path (used by the gap diagnosis to re-plan variants)."""
+    """Plan an already interpreted path: limits, then the look-ahead feed law."""
     spec = resolve_machine(machine)
     t0 = time.perf_counter()
     limits = path_limits(path, spec, options)
@@ -74,3 +101,103 @@ def simulate_path(path: Path, machine: MachineSpec | str | FsPath,
     return Simulation(program=program, machine=spec, options=options, interpreted=None,
                       limits=limits, motion=motion,
                       stage_time_s={"limits_s": t1 - t0, "plan_s": t2 - t1})
+
+
+# ---------------------------------------------------------------------------------------------
+# Many programs
+# ---------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class BatchResult:
+    program: str
+    ok: bool
+    cycle_time_s: float | None = None
+    blocks: int | None = None
+    path_length_mm: float | None = None
+    feed_efficiency: float | None = None
+    limited_fraction: float | None = None
+    warnings: int = 0
+    error: str | None = None
+    elapsed_s: float = 0.0
+    worker: str = ""
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def expand_programs(patterns: Iterable[str]) -> list[str]:
+    """Files matching the patterns (glob, recursive ``**``), each once, in a stable order."""
+    seen: dict[str, None] = {}
+    for pattern in patterns:
+        matches = sorted(glob.glob(pattern, recursive=True)) if glob.has_magic(pattern) else [pattern]
+        if not matches:
+            raise UsageError(f"no program matches {pattern!r}")
+        for m in matches:
+            seen.setdefault(m, None)
+    return list(seen)
+
+
+def simulate_one(program: str, machine: MachineSpec, options: ModelOptions = FULL_MODEL) -> BatchResult:
+    """Simulate one program and summarise it (runs in a worker process)."""
+    from ncsim.report.summary import summary
+
+    t0 = time.perf_counter()
+    worker = f"{os.uname().nodename}:{os.getpid()}"
+    try:
+        sim = simulate(program, machine, options)
+        s = summary(sim, top=0, include_blocks=False)
+        return BatchResult(program=program, ok=True, cycle_time_s=s["cycle_time_s"],
+                           blocks=s["blocks"], path_length_mm=s["path_length_mm"],
+                           feed_efficiency=s["feed_efficiency"],
+                           limited_fraction=s["limited_fraction"], warnings=len(s["warnings"]),
+                           elapsed_s=time.perf_counter() - t0, worker=worker)
+    except NcsimError as exc:
+        return BatchResult(program=program, ok=False, error=exc.render(),
+                           elapsed_s=time.perf_counter() - t0, worker=worker)
+    except OSError as exc:
+        return BatchResult(program=program, ok=False, error=f"{program}: {exc.strerror or exc}",
+                           elapsed_s=time.perf_counter() - t0, worker=worker)
+
+
+def run_batch(programs: list[str], machine: MachineSpec, options: ModelOptions = FULL_MODEL, *,
+              jobs: int = 1, scheduler: str | None = None,
+              on_result: Callable[[BatchResult], None] | None = None) -> list[BatchResult]:
+    """Simulate ``programs`` with ``jobs`` local processes, or on the Dask scheduler at
+    ``scheduler`` (``tcp://host:port``); ``on_result`` is called as each one finishes."""
+    if jobs < 1:
+        raise UsageError("--jobs must be at least 1")
+    results: dict[str, BatchResult] = {}
+
+    def done(res: BatchResult) -> None:
+        results[res.program] = res
+        if on_result is not None:
+            on_result(res)
+
+    if scheduler:
+        _run_dask(programs, machine, options, scheduler, done)
+    elif jobs == 1 or len(programs) <= 1:
+        for prog in programs:
+            done(simulate_one(prog, machine, options))
+    else:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            futures = [pool.submit(simulate_one, prog, machine, options) for prog in programs]
+            for fut in as_completed(futures):
+                done(fut.result())
+    return [results[p] for p in programs]
+
+
+def _run_dask(programs, machine, options, scheduler: str, done) -> None:
+    try:
+        from distributed import Client, as_completed as dask_completed
+    except ImportError:  # pragma: no cover - depends on the install
+        raise UsageError("--scheduler needs Dask: pip install 'ncsim[dask]'") from None
+    try:
+        client = Client(scheduler, timeout="10s")
+    except (OSError, TimeoutError) as exc:
+        raise UsageError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+    try:
+        futures = client.map(simulate_one, programs, machine=machine, options=options, pure=False)
+        for fut in dask_completed(futures):
+            done(fut.result())
+    finally:
+        client.close()

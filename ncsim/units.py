@@ -3,13 +3,31 @@
 Inside ncsim every length is in mm, time in s, angle in rad; so velocities are mm/s,
 accelerations mm/s^2 and jerks mm/s^3. Names carry the unit as a suffix
 (``feed_mm_s``, ``jerk_mm_s3``, ``t_s``). Programs (F in mm/min under G94, inches under
-G70/G700), machine files (m/min, m/s^2, m/s^3, ms) and CLI output convert here, at the edge.
+G70/G700), machine files (m/min, m/s^2, m/s^3, ms), measured data (um, ms, m/min, ...) and
+CLI output convert here, at the edge. Some outputs keep a unit of their own because people
+read them so: contour errors in um, lags and time errors in ms (the unit is in the name:
+``contour_rms_um``, ``lag_ms``).
 """
 from __future__ import annotations
 
 MM_PER_INCH = 25.4
 MM_PER_M = 1000.0
+UM_PER_MM = 1000.0
+NM_PER_MM = 1e6
 S_PER_MIN = 60.0
+MS_PER_S = 1000.0
+US_PER_S = 1e6
+
+#: quantity -> unit name -> factor from that unit to the internal one (s, mm, mm/s, mm/s^2)
+FACTORS: dict[str, dict[str, float]] = {
+    "time": {"s": 1.0, "ms": 1.0 / MS_PER_S, "us": 1.0 / US_PER_S, "min": S_PER_MIN},
+    "length": {"mm": 1.0, "um": 1.0 / UM_PER_MM, "m": MM_PER_M, "in": MM_PER_INCH,
+               "nm": 1.0 / NM_PER_MM},
+    "velocity": {"mm/s": 1.0, "mm/min": 1.0 / S_PER_MIN, "m/min": MM_PER_M / S_PER_MIN,
+                 "m/s": MM_PER_M, "um/s": 1.0 / UM_PER_MM, "in/min": MM_PER_INCH / S_PER_MIN},
+    "acceleration": {"mm/s2": 1.0, "m/s2": MM_PER_M, "um/s2": 1.0 / UM_PER_MM},
+    "jerk": {"mm/s3": 1.0, "m/s3": MM_PER_M},
+}
 
 
 def mm_min_to_mm_s(value_mm_min):
@@ -45,8 +63,26 @@ def mm_s3_to_m_s3(value_mm_s3):
 
 
 def ms_to_s(value_ms):
-    return value_ms / 1000.0
+    return value_ms / MS_PER_S
 
 
 def s_to_ms(value_s):
-    return value_s * 1000.0
+    return value_s * MS_PER_S
+
+
+def um_to_mm(value_um):
+    return value_um / UM_PER_MM
+
+
+def mm_to_um(value_mm):
+    return value_mm * UM_PER_MM
+
+
+def um_per_m_s2_to_s2(value_um_per_m_s2):
+    """A compliance in um per (m/s^2), as people quote it, to mm per (mm/s^2) = s^2."""
+    return value_um_per_m_s2 / (UM_PER_MM * MM_PER_M)
+
+
+def s2_to_um_per_m_s2(value_s2):
+    """A compliance in mm per (mm/s^2) = s^2 to um per (m/s^2)."""
+    return value_s2 * (UM_PER_MM * MM_PER_M)

@@ -225,7 +225,7 @@ def test_servo_truth_end_to_end():
 
 def test_align_trace_reads_the_trace_columns():
     from ncsim.gap.align import align_trace
-    from ncsim.trace import Trace
+    from ncsim.motion import Trace
     S = sim()
     n = len(S["t"])
     z = np.zeros(n)

@@ -6,7 +6,7 @@ import json
 import pytest
 from click.testing import CliRunner
 
-from ncsim.batch import expand_programs, run_batch, simulate_one
+from ncsim.simulate import expand_programs, run_batch, simulate_one
 from ncsim.cli.batch import batch
 from ncsim.errors import UsageError
 from ncsim.simulate import simulate

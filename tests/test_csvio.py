@@ -19,7 +19,7 @@ from ncsim.report.csvio import (ALL_COLUMNS, DEFAULT_COLUMNS, FLOAT, INT, LABEL,
                          format_rows, read_trace_csv, trace_from_columns, write_trace_csv)
 from ncsim.errors import MeasuredDataError, UsageError
 from ncsim.motion import Limit, Phase
-from ncsim.trace import Trace
+from ncsim.motion import Trace
 
 
 def random_trace(n: int, seed: int = 0, scale: float = 100.0) -> Trace:

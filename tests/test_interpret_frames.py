@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from ncsim.nc.frames import Frame, axis_rotation, cos_sin_deg, read_setup_offsets, rotation_rpy
+from ncsim.config import load_setup
+from ncsim.nc.frames import Frame, axis_rotation, cos_sin_deg, rotation_rpy
 from ncsim.errors import MachineSpecError
 from ncsim.nc.interpret import interpret_text
 
@@ -129,22 +130,22 @@ def test_frame_change_keeps_the_machine_position():
     assert close(e[1], [10, 0, 5])
 
 
-def test_read_setup_offsets(tmp_path):
+def test_load_setup(tmp_path):
     good = tmp_path / "setup.toml"
     good.write_text("[work_offsets]\nG54 = [1, 2.5, -3]\nG505 = [0, 0, 0]\n")
-    assert read_setup_offsets(good) == {"G54": (1.0, 2.5, -3.0), "G505": (0.0, 0.0, 0.0)}
+    assert load_setup(good) == {"G54": (1.0, 2.5, -3.0), "G505": (0.0, 0.0, 0.0)}
     bad = tmp_path / "bad.toml"
     bad.write_text("[work_offsets]\nG54 = [1, 2]\n")
     with pytest.raises(MachineSpecError, match="work_offsets.G54: must be a list of three numbers"):
-        read_setup_offsets(bad)
+        load_setup(bad)
     bad.write_text("[work_offsets]\nG99 = [1, 2, 3]\n")
     with pytest.raises(MachineSpecError, match="work_offsets.G99: unknown work offset"):
-        read_setup_offsets(bad)
+        load_setup(bad)
     bad.write_text("offsets = 1\n")
     with pytest.raises(MachineSpecError, match="offsets: unknown key"):
-        read_setup_offsets(bad)
+        load_setup(bad)
     with pytest.raises(MachineSpecError, match="cannot read setup file"):
-        read_setup_offsets(tmp_path / "missing.toml")
+        load_setup(tmp_path / "missing.toml")
 
 
 def test_frame_then_composes_in_the_new_system():

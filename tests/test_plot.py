@@ -70,7 +70,7 @@ def test_figure_has_five_labelled_panels_limit_legend_and_boundaries(bore_sim, b
 def test_csv_without_dynamics_columns_gives_three_panels(bore_trace):
     from ncsim.report.csvio import DEFAULT_COLUMNS
     from ncsim.report.plot import available_panels
-    from ncsim.trace import Trace
+    from ncsim.motion import Trace
     nan = np.full(len(bore_trace), np.nan)
     thin = Trace(**{**{f: getattr(bore_trace, f) for f in Trace.__slots__},
                     "accel_t_mm_s2": nan, "jerk_t_mm_s3": nan,

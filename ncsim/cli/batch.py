@@ -7,9 +7,7 @@ import sys
 
 import click
 
-from ncsim.batch import expand_programs, run_batch
 from ncsim.errors import ExitStatus
-from ncsim.machine import load_machine
 
 
 @click.command("batch")
@@ -27,6 +25,9 @@ def batch(patterns, machine_name, jobs, scheduler, as_json):
 
     Exit status 0 when every program ran, 2 when any could not be simulated.
     """
+    from ncsim.machine import load_machine
+    from ncsim.simulate import expand_programs, run_batch
+
     programs = expand_programs(patterns)
     machine = load_machine(machine_name)
     if sys.stderr.isatty():  # a progress bar for people; silence for logs and CI

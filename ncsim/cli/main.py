@@ -76,12 +76,12 @@ def cli() -> None:
 @click.option("--limit", type=click.IntRange(min=0), default=None, help="Print only the first N segments.")
 def parse_cmd(program, machine_name, setup_file, as_json, limit) -> None:
     """Interpret PROGRAM and list its path segments (warnings on stderr)."""
-    from ncsim.nc.frames import read_setup_offsets
-    from ncsim.nc.interpret import interpret_file
+    from ncsim.config import load_setup
     from ncsim.machine import load_machine
+    from ncsim.nc.interpret import interpret_file
 
     machine = load_machine(machine_name) if machine_name else None
-    offsets = read_setup_offsets(setup_file) if setup_file else None
+    offsets = load_setup(setup_file) if setup_file else None
     result = interpret_file(program, machine, setup_offsets=offsets)
     for warning in result.warnings:
         click.echo(warning.render(), err=True)
@@ -218,8 +218,11 @@ def model_options(params: dict):
 class Progress:
     """Stage-by-stage progress on stderr, drawn only on a terminal (silent in logs and CI).
 
-    While a stage runs, a daemon thread redraws the line every ``TICK_S`` so that the elapsed
-    time moves on long stages (interpreting a million blocks takes seconds)."""
+    Calling it with a stage name begins that stage (and ends the one before): it is the
+    ``progress`` callback of ``ncsim.simulate.simulate``; ``stage`` does the same for the
+    command's own stages. While a stage runs, a daemon thread redraws the line every
+    ``TICK_S`` so that the elapsed time moves on long stages (interpreting a million blocks
+    takes seconds)."""
 
     WIDTH = 24
     TICK_S = 0.25
@@ -231,7 +234,7 @@ class Progress:
             enabled = bool(isatty and isatty())
         self.enabled = enabled
         self.stages = list(stages)
-        self.done_count = 0
+        self.started = 0
         self.current = ""
         self.t0 = time.perf_counter()
         self._lock = threading.Lock()
@@ -240,9 +243,10 @@ class Progress:
 
     def _draw(self) -> None:
         n = len(self.stages)
-        filled = self.WIDTH * self.done_count // max(n, 1)
+        done = max(self.started - 1, 0)
+        filled = self.WIDTH * done // max(n, 1)
         bar = "#" * filled + "-" * (self.WIDTH - filled)
-        self.stream.write(f"\r\033[Kncsim [{bar}] {min(self.done_count + 1, n)}/{n} {self.current} "
+        self.stream.write(f"\r\033[Kncsim [{bar}] {min(done + 1, n)}/{n} {self.current} "
                           f"({time.perf_counter() - self.t0:.1f} s)")
         self.stream.flush()
 
@@ -252,19 +256,21 @@ class Progress:
                 if not self._stop.is_set():
                     self._draw()
 
+    def __call__(self, name: str) -> None:
+        self.started += 1
+        if not self.enabled:
+            return
+        with self._lock:
+            self.current = name
+            self._draw()
+        if self._ticker is None:
+            self._ticker = threading.Thread(target=self._tick, name="ncsim-progress", daemon=True)
+            self._ticker.start()
+
     @contextmanager
     def stage(self, name: str):
-        if self.enabled:
-            with self._lock:
-                self.current = name
-                self._draw()
-            if self._ticker is None:
-                self._ticker = threading.Thread(target=self._tick, name="ncsim-progress", daemon=True)
-                self._ticker.start()
-        try:
-            yield
-        finally:
-            self.done_count += 1
+        self(name)
+        yield
 
     def close(self) -> None:
         if self.enabled:
@@ -273,27 +279,6 @@ class Progress:
                 self._ticker.join()
             self.stream.write("\r\033[K")
             self.stream.flush()
-
-
-def _simulate(program: str, machine_name: str, setup_file, options, progress: Progress):
-    """interpret -> limits + plan (as ``simulate.simulate``), one progress stage each."""
-    from dataclasses import replace
-
-    from ncsim.nc.frames import read_setup_offsets
-    from ncsim.nc.interpret import interpret_file
-    from ncsim.machine import load_machine
-    from ncsim.simulate import simulate_path
-
-    machine = load_machine(machine_name)
-    offsets = read_setup_offsets(setup_file) if setup_file else None
-    with progress.stage("interpret"):
-        t0 = time.perf_counter()
-        result = interpret_file(program, machine, setup_offsets=offsets)
-        interpret_s = time.perf_counter() - t0
-    with progress.stage("plan"):
-        planned = simulate_path(result.path, machine, options, program=program)
-    return replace(planned, interpreted=result,
-                   stage_time_s={"interpret_s": interpret_s, **planned.stage_time_s})
 
 
 def _echo_warnings(sim) -> None:
@@ -326,16 +311,18 @@ def run_cmd(program, machine_name, as_json, top, trace_file, dt_s, trace_columns
     """Simulate PROGRAM on MACHINE: cycle time, programmed against reached feed, and the
     blocks that lose the most time with their line and the limit that holds them."""
     from ncsim.report import summary as report
+    from ncsim.simulate import STAGES, simulate
 
     options = model_options(params)
     if not trace_file and (dt_s is not None or trace_columns != "default"):
         raise UsageError("--dt and --trace-columns apply to the trace: add --trace FILE.csv")
-    stages = ["interpret", "plan"] + ["cross-check"] * crosscheck + ["summary"]
+    stages = [*STAGES, *["cross-check"] * crosscheck, "summary"]
     if trace_file:
         stages += ["sample", "write CSV"]
     progress = Progress(stages)
     try:
-        sim = _simulate(program, machine_name, params["setup_file"], options, progress)
+        sim = simulate(program, machine_name, options, setup_offsets=params["setup_file"],
+                       progress=progress)
         check = None
         if crosscheck:
             from ncsim.plan.crosscheck import crosscheck as run_crosscheck
@@ -435,10 +422,12 @@ def plot_cmd(program, machine_name, trace_file, output, dt_s, title, **params):
     else:
         if not machine_name:
             raise UsageError("--machine is required with a PROGRAM (e.g. --machine mikron)")
-        progress = Progress(["interpret", "plan", "sample", "draw"])
+        from ncsim.plan.sample import sample_motion
+        from ncsim.simulate import STAGES, simulate
+        progress = Progress([*STAGES, "sample", "draw"])
         try:
-            sim = _simulate(program, machine_name, params["setup_file"], options, progress)
-            from ncsim.plan.sample import sample_motion
+            sim = simulate(program, machine_name, options, setup_offsets=params["setup_file"],
+                       progress=progress)
             with progress.stage("sample"):
                 trace = sample_motion(sim.motion, dt_s if dt_s else _plot_dt_s(sim))
         finally:
@@ -491,6 +480,7 @@ def check_cmd(program, machine_name, max_time_s, min_feed_ratio, max_limited_fra
     (with the blocks to look at), 2 on bad input."""
     from ncsim.report import summary as report
     from ncsim.report.check import evaluate, load_baseline, require_thresholds
+    from ncsim.simulate import STAGES, simulate
 
     options = model_options(params)
     require_thresholds(max_time_s, min_feed_ratio, max_limited_fraction, baseline_file,
@@ -499,9 +489,10 @@ def check_cmd(program, machine_name, max_time_s, min_feed_ratio, max_limited_fra
     thresholds = dict(max_time_s=max_time_s, min_feed_ratio=min_feed_ratio,
                       max_limited_fraction=max_limited_fraction, baseline=baseline,
                       max_regression_pct=max_regression_pct, baseline_name=baseline_file or "")
-    progress = Progress(["interpret", "plan", "summary"])
+    progress = Progress([*STAGES, "summary"])
     try:
-        sim = _simulate(program, machine_name, params["setup_file"], options, progress)
+        sim = simulate(program, machine_name, options, setup_offsets=params["setup_file"],
+                       progress=progress)
         with progress.stage("summary"):
             per_block = baseline is not None and "blocks_detail" in baseline
             summary = report.summary(sim, top=5, include_blocks=per_block)

@@ -489,7 +489,7 @@ def align(measured: MeasuredTrace, sim_pos_mm, sim_t_s, sim_s_mm, *, sim_block=N
 
 
 def align_trace(measured: MeasuredTrace, trace, **kwargs) -> Alignment:
-    """:func:`align` against a simulated :class:`~ncsim.trace.Trace` (its ``pos_mm``, ``t_s``,
+    """:func:`align` against a simulated :class:`~ncsim.motion.Trace` (its ``pos_mm``, ``t_s``,
     ``s_mm``, ``block``, ``phase`` and ``feed_mm_s`` columns)."""
     return align(measured, trace.pos_mm, trace.t_s, trace.s_mm, sim_block=trace.block,
                  sim_phase=trace.phase, sim_feed_mm_s=trace.feed_mm_s, **kwargs)

@@ -101,7 +101,7 @@ class ModelTrace:
     block: np.ndarray        # (n,) block of the set point
     phase: np.ndarray        # (n,) motion.Phase of the set point
     feed_mm_s: np.ndarray    # (n,) speed of pos_mm
-    setpoint: object         # the planner's ncsim.trace.Trace on the same grid
+    setpoint: object         # the planner's ncsim.motion.Trace on the same grid
     cycle_time_s: float      # end of the planned motion
     compare_speed_mm_s: np.ndarray | None = None  # speed through the measured's operator
 

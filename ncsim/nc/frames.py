@@ -19,13 +19,10 @@ points (numpy arrays) give bit-identical results: the fast and the Lark path rel
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
-from pathlib import Path as FsPath
 
 import numpy as np
 
-from ncsim.errors import MachineSpecError
 from ncsim.geometry import PLANE_AXES
 
 _AXES = "XYZ"
@@ -147,44 +144,3 @@ def arc_normal(frame: Frame, plane: int) -> np.ndarray | None:
         return None
     n = np.cross(a, b)
     return n / np.linalg.norm(n)
-
-
-def read_setup_offsets(path: str | FsPath) -> dict[str, tuple[float, float, float]]:
-    """Work offsets from a setup TOML file: ``[work_offsets]`` ``G54 = [x_mm, y_mm, z_mm]``.
-
-    Accepts G54..G57 and G505..G599; any other key or a malformed value is a
-    :class:`~ncsim.errors.MachineSpecError` naming the file and the key.
-    """
-    file = str(path)
-    try:
-        data = tomllib.loads(FsPath(path).read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise MachineSpecError(f"cannot read setup file: {exc.strerror}", file=file) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise MachineSpecError(f"not valid TOML: {exc}", file=file) from None
-    for key in data:
-        if key != "work_offsets":
-            raise MachineSpecError("unknown key (a setup file has only [work_offsets])", file, key)
-    table = data.get("work_offsets", {})
-    if not isinstance(table, dict):
-        raise MachineSpecError("must be a table", file, "work_offsets")
-    out = {}
-    for key, value in table.items():
-        if not is_settable_offset(key):
-            raise MachineSpecError("unknown work offset (use G54..G57 or G505..G599)", file,
-                                   f"work_offsets.{key}")
-        if (not isinstance(value, list) or len(value) != 3
-                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
-                or not all(math.isfinite(v) for v in value)):
-            raise MachineSpecError("must be a list of three numbers [x_mm, y_mm, z_mm]", file,
-                                   f"work_offsets.{key}")
-        out[key] = tuple(float(v) for v in value)
-    return out
-
-
-def is_settable_offset(name: str) -> bool:
-    """G54..G57 and the extended settable frames G505..G599."""
-    if not name.startswith("G") or not name[1:].isdigit():
-        return False
-    code = int(name[1:])
-    return 54 <= code <= 57 or 505 <= code <= 599

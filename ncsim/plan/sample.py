@@ -1,4 +1,4 @@
-"""Sampling a planned :class:`~ncsim.motion.Motion` into a :class:`~ncsim.trace.Trace`.
+"""Sampling a planned :class:`~ncsim.motion.Motion` into a :class:`~ncsim.motion.Trace`.
 
 The feed law is a sequence of constant-jerk pieces along the path (``motion.py``); geometry maps
 arc length to position (``geometry.py``). A sample at time ``t`` therefore takes:
@@ -42,7 +42,7 @@ from ncsim.errors import UsageError
 from ncsim.geometry import arc_basis
 from ncsim.motion import Limit, Motion, Phase
 from ncsim.path import ARC, Path
-from ncsim.trace import Trace
+from ncsim.motion import Trace
 
 CHUNK_SAMPLES = 1 << 16          # samples evaluated at once (bounds temporary memory)
 MAX_SAMPLES = 50_000_000         # refuse grids that would not fit in memory (~9 GB of trace)

@@ -32,7 +32,7 @@ import numpy as np
 
 from ncsim.errors import MeasuredDataError, UsageError
 from ncsim.motion import Limit, Phase
-from ncsim.trace import Trace
+from ncsim.motion import Trace
 from ncsim.units import mm_min_to_mm_s, mm_s_to_mm_min
 
 CHUNK_ROWS = 1 << 16

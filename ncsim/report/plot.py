@@ -1,6 +1,6 @@
 """Figures: a simulated run (``ncsim plot``) and a machine's feed limits (``ncsim explain --plot``).
 
-:func:`run_figure` draws a :class:`~ncsim.trace.Trace` (plus the planned
+:func:`run_figure` draws a :class:`~ncsim.motion.Trace` (plus the planned
 :class:`~ncsim.motion.Motion` when there is one) as up to five panels:
 
 1. ``feed_time``  feed (mm/min) against time: programmed F, set point (eq. 12), reached feed;
@@ -35,7 +35,7 @@ from matplotlib.patches import Patch
 
 from ncsim.errors import UsageError
 from ncsim.motion import LIMIT_LABELS, Limit
-from ncsim.trace import Trace
+from ncsim.motion import Trace
 from ncsim.units import mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_mm_min
 
 FIGSIZE_IN = (16.0, 10.0)
