@@ -10,6 +10,8 @@ read them so: contour errors in um, lags and time errors in ms (the unit is in t
 """
 from __future__ import annotations
 
+import math
+
 MM_PER_INCH = 25.4
 MM_PER_M = 1000.0
 UM_PER_MM = 1000.0
@@ -17,6 +19,7 @@ NM_PER_MM = 1e6
 S_PER_MIN = 60.0
 MS_PER_S = 1000.0
 US_PER_S = 1e6
+DEG_PER_RAD = 180.0 / math.pi
 
 #: quantity -> unit name -> factor from that unit to the internal one (s, mm, mm/s, mm/s^2)
 FACTORS: dict[str, dict[str, float]] = {

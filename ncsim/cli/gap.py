@@ -129,7 +129,7 @@ def gap(programs, machine_name, measured_file, fmt, columns, units, sample_perio
             measured = load_measured_csv(measured_file, columns=_pairs(columns, "--column") or None,
                                          units=_pairs(units, "--unit") or None,
                                          sample_period_s=None if sample_period_ms is None
-                                         else sample_period_ms / 1000.0)
+                                         else ms_to_s(sample_period_ms))
         if len(programs) > 1:
             raise UsageError("a measured trace is diagnosed against one PROGRAM, got "
                              f"{len(programs)}")

@@ -22,7 +22,10 @@ from contextlib import contextmanager
 import click
 
 from ncsim import __version__
+from ncsim.cli.batch import batch
+from ncsim.cli.gap import gap
 from ncsim.errors import ExitStatus, NcsimError, UsageError
+from ncsim.units import s_to_ms
 
 
 class NcsimGroup(click.Group):
@@ -352,7 +355,7 @@ def run_cmd(program, machine_name, as_json, top, trace_file, dt_s, trace_columns
         click.echo(_crosscheck_text(check))
     if rows is not None:
         dt = sim.machine.ncu.ipo_cycle_s if dt_s is None else dt_s
-        click.echo(f"\ntrace       {rows} samples every {dt * 1000:g} ms written to {trace_file}")
+        click.echo(f"\ntrace       {rows} samples every {s_to_ms(dt):g} ms written to {trace_file}")
 
 
 def summary_json(summary: dict) -> str:
@@ -564,7 +567,7 @@ def explain_cmd(machine_name, radii_mm, plot_file, as_json) -> None:
 
 
 def _explain_text(machine, ext, rows) -> str:
-    from ncsim.units import mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min, s_to_ms
+    from ncsim.units import mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min
     n = machine.ncu
     out = [f"machine  {machine.name}: {machine.description}", f"file     {machine.source}", "",
            "axes   V_max m/min  A_max m/s^2  J_max m/s^3  Kv 1/s",
@@ -612,17 +615,8 @@ def _explain_text(machine, ext, rows) -> str:
 # Commands written in their own modules
 # ---------------------------------------------------------------------------------------------
 
-from ncsim.cli.batch import batch  # noqa: E402  (after `cli`, which it does not need)
-
 cli.add_command(batch)
-
-try:  # `ncsim gap`, the sim-to-real gap diagnosis, when this checkout has it
-    from ncsim.cli.gap import gap  # noqa: E402
-except ModuleNotFoundError as exc:  # pragma: no cover - only the module itself may be missing
-    if exc.name != f"{__package__}.cli_gap":
-        raise
-else:
-    cli.add_command(gap)
+cli.add_command(gap)
 
 
 def main() -> None:

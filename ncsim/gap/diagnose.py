@@ -73,6 +73,7 @@ from ncsim.gap.measured import MeasuredTrace, derived_speed_mm_s
 from ncsim.path import ARC, Path
 from ncsim.plan.lookahead import plan
 from ncsim.plan.sample import sample_motion
+from ncsim.units import mm_to_um, s_to_ms, um_to_mm
 
 MODEL_DT_S = 2e-3            # model trace grid (chord error a dt^2/8: 0.5 um at 1 m/s^2)
 SETTLE_S = 0.5               # model held at rest after the end (lagging axes settle)
@@ -192,7 +193,7 @@ def gap_scales(measured: MeasuredTrace, speed_window_s: float = SPEED_WINDOW_S) 
     speed_noise = math.sqrt(2.0) * noise / width
     return GapScales(feed_mm_s=max(2.0 * speed_noise + FEED_SCALE_SHARE * top, 1e-3),
                      time_s=TIME_SCALE_S,
-                     contour_mm=max(2.0 * noise, MIN_CONTOUR_SCALE_UM * 1e-3),
+                     contour_mm=max(2.0 * noise, um_to_mm(MIN_CONTOUR_SCALE_UM)),
                      noise_mm=noise, speed_window_s=width)
 
 
@@ -268,10 +269,10 @@ def gap_metrics(al: Alignment, mt: ModelTrace, scales: GapScales) -> GapMetrics:
              "time": (_rms(time_err) / scales.time_s) ** 2,
              "contour": (_rms(dist) / scales.contour_mm) ** 2}
     return GapMetrics(gap=math.sqrt(sum(parts.values())), feed_rms_mm_s=_rms(feed_err),
-                      time_rms_ms=_rms(time_err) * 1e3,
+                      time_rms_ms=s_to_ms(_rms(time_err)),
                       cycle_time_error_s=t_meas_end - t_model_end,
-                      contour_rms_um=_rms(dist) * 1e3,
-                      contour_max_um=float(np.max(dist)) * 1e3 if dist.size else 0.0,
+                      contour_rms_um=mm_to_um(_rms(dist)),
+                      contour_max_um=mm_to_um(float(np.max(dist))) if dist.size else 0.0,
                       n_samples=int(np.count_nonzero(valid)), parts=parts,
                       n_unmatched=int(np.count_nonzero(unmatched)))
 
@@ -564,7 +565,7 @@ def localise(al: Alignment, mt: ModelTrace, path: Path, scales: GapScales,
     model_speed = _compare_speed(mt, scales)
     v_model = np.interp(al.t_sim_s, mt.t_s, model_speed)
     feed_err = al.feed_mm_s - v_model
-    dist_um = al.distance_mm * 1e3
+    dist_um = mm_to_um(al.distance_mm)
     ok = al.valid & (al.block >= 0)
     # at rest the place does not tell the time: time errors from samples in motion only
     moving = v_model > MOVING_SHARE * max(float(np.max(model_speed)), 1e-9)
@@ -578,14 +579,14 @@ def localise(al: Alignment, mt: ModelTrace, path: Path, scales: GapScales,
                        "kind": "arc" if path.kind[b] == ARC else "line",
                        "feed_error_mean_mm_s": float(np.mean(feed_err[idx])),
                        "feed_error_rms_mm_s": _rms(feed_err[idx]),
-                       "time_error_in_ms": float(te[0]) * 1e3,
-                       "time_error_out_ms": float(te[-1]) * 1e3,
-                       "duration_error_ms": float(te[-1] - te[0]) * 1e3,
+                       "time_error_in_ms": s_to_ms(float(te[0])),
+                       "time_error_out_ms": s_to_ms(float(te[-1])),
+                       "duration_error_ms": s_to_ms(float(te[-1] - te[0])),
                        "contour_rms_um": _rms(dist_um[idx]),
                        "contour_max_um": float(np.max(dist_um[idx]))})
-    score = lambda r: (abs(r["duration_error_ms"]) / (scales.time_s * 1e3)  # noqa: E731
+    score = lambda r: (abs(r["duration_error_ms"]) / s_to_ms(scales.time_s)  # noqa: E731
                        + r["feed_error_rms_mm_s"] / scales.feed_mm_s
-                       + r["contour_rms_um"] / (scales.contour_mm * 1e3))
+                       + r["contour_rms_um"] / mm_to_um(scales.contour_mm))
     ranked = sorted(blocks, key=score, reverse=True)[:top_blocks]
 
     phases = []
@@ -596,7 +597,7 @@ def localise(al: Alignment, mt: ModelTrace, path: Path, scales: GapScales,
             phases.append({"phase": name, "n": int(np.count_nonzero(sel)),
                            "feed_error_rms_mm_s": _rms(feed_err[sel]),
                            "contour_rms_um": _rms(dist_um[sel]),
-                           "time_error_mean_ms": float(np.mean(al.time_error_s[mov])) * 1e3
+                           "time_error_mean_ms": s_to_ms(float(np.mean(al.time_error_s[mov])))
                            if np.any(mov) else 0.0})
 
     q = measured.pos_mm - al.offset_mm
@@ -618,7 +619,7 @@ def localise(al: Alignment, mt: ModelTrace, path: Path, scales: GapScales,
         _, feed_s, _, _, _ = deviation_profile(ang, feed_err[sel], n_bins)
         mov = moving[sel]
         if np.any(mov):
-            _, time_s, _, _, _ = deviation_profile(ang[mov], al.time_error_s[sel][mov] * 1e3, n_bins)
+            _, time_s, _, _, _ = deviation_profile(ang[mov], s_to_ms(al.time_error_s[sel][mov]), n_bins)
         else:
             time_s = np.full(n_bins, np.nan)
         row = {"block": int(b), "line": int(path.line[b]), "radius_mm": radius,
@@ -690,9 +691,9 @@ class Diagnosis(RankedFits):
         return {"kind": "trace", "source": self.source, "program": self.program,
                 "base": self.base, "base_model": model_description(self.base_model),
                 "gap_before": self.gap_before.as_dict(),
-                "scales": {"feed_mm_s": self.scales.feed_mm_s, "time_ms": self.scales.time_s * 1e3,
-                           "contour_um": self.scales.contour_mm * 1e3,
-                           "noise_um": self.scales.noise_mm * 1e3},
+                "scales": {"feed_mm_s": self.scales.feed_mm_s, "time_ms": s_to_ms(self.scales.time_s),
+                           "contour_um": mm_to_um(self.scales.contour_mm),
+                           "noise_um": mm_to_um(self.scales.noise_mm)},
                 "alignment": self.alignment,
                 "effects": [f.as_dict() for f in self.fits],
                 "combined": self.combined.as_dict() if self.combined is not None else None,

@@ -50,6 +50,8 @@ from ncsim.errors import UsageError
 from ncsim.machine import MachineSpec, StructureSpec
 from ncsim.motion import FULL_MODEL, ModelOptions
 from ncsim.path import BRISK, SOFT
+from ncsim.units import (m_s2_to_mm_s2, m_s3_to_mm_s3, mm_s2_to_m_s2, mm_s3_to_m_s3, ms_to_s,
+                         s2_to_um_per_m_s2, s_to_ms, um_per_m_s2_to_s2)
 
 # ---------------------------------------------------------------------------------------------
 # Parameters and models
@@ -258,29 +260,29 @@ class Effect:
 
 class NcuPathJerk(Effect):
     def current(self, model):
-        return {"j_tcurv_m_s3": model.machine.ncu.tangential_jerk_mm_s3 / 1000.0}
+        return {"j_tcurv_m_s3": mm_s3_to_m_s3(model.machine.ncu.tangential_jerk_mm_s3)}
 
     def apply_planner(self, machine, options, v):
         share = machine.ncu.tangential_jerk_share
-        m = machine.with_ncu(curvilinear_jerk_mm_s3=v["j_tcurv_m_s3"] * 1000.0 / share)
+        m = machine.with_ncu(curvilinear_jerk_mm_s3=m_s3_to_mm_s3(v["j_tcurv_m_s3"]) / share)
         return m, replace(options, ncu_path_jerk=True)
 
 
 class TransitionCrossing(Effect):
     def current(self, model):
-        return {"transition_time_ms": model.machine.ncu.transition_time_s * 1000.0}
+        return {"transition_time_ms": s_to_ms(model.machine.ncu.transition_time_s)}
 
     def apply_planner(self, machine, options, v):
-        m = machine.with_ncu(transition_time_s=v["transition_time_ms"] / 1000.0)
+        m = machine.with_ncu(transition_time_s=ms_to_s(v["transition_time_ms"]))
         return m, replace(options, transition_crossing=True)
 
 
 class CycleTimeLimit(Effect):
     def current(self, model):
-        return {"ipo_cycle_ms": model.machine.ncu.ipo_cycle_s * 1000.0}
+        return {"ipo_cycle_ms": s_to_ms(model.machine.ncu.ipo_cycle_s)}
 
     def apply_planner(self, machine, options, v):
-        m = machine.with_ncu(ipo_cycle_s=v["ipo_cycle_ms"] / 1000.0)
+        m = machine.with_ncu(ipo_cycle_s=ms_to_s(v["ipo_cycle_ms"]))
         return m, replace(options, cycle_time_limit=True)
 
 
@@ -291,11 +293,11 @@ def _plane_ratio(values: np.ndarray) -> np.ndarray:
 
 class AxisJerkRamps(Effect):
     def current(self, model):
-        return {"axis_jerk_m_s3": float(model.machine.max_jerk_mm_s3[0]) / 1000.0}
+        return {"axis_jerk_m_s3": mm_s3_to_m_s3(float(model.machine.max_jerk_mm_s3[0]))}
 
     def apply_planner(self, machine, options, v):
         ratio = _plane_ratio(np.array(machine.max_jerk_mm_s3))
-        m = machine.with_axes(max_jerk_mm_s3=v["axis_jerk_m_s3"] * 1000.0 * ratio)
+        m = machine.with_axes(max_jerk_mm_s3=m_s3_to_mm_s3(v["axis_jerk_m_s3"]) * ratio)
         return m, replace(options, jerk_limited_ramps=True)
 
 
@@ -315,14 +317,14 @@ class AccelMode(Effect):
     def current(self, model):
         mode = model.options.accel_mode
         name = {SOFT: "SOFT", BRISK: "BRISK"}.get(mode, "SOFT")
-        return {"mode": name, "axis_accel_m_s2": float(model.machine.max_accel_mm_s2[0]) / 1000.0}
+        return {"mode": name, "axis_accel_m_s2": mm_s2_to_m_s2(float(model.machine.max_accel_mm_s2[0]))}
 
     def remove(self, model):
         return replace(model, options=replace(model.options, accel_mode=None))
 
     def apply_planner(self, machine, options, v):
         ratio = _plane_ratio(np.array(machine.max_accel_mm_s2))
-        m = machine.with_axes(max_accel_mm_s2=v["axis_accel_m_s2"] * 1000.0 * ratio)
+        m = machine.with_axes(max_accel_mm_s2=m_s2_to_mm_s2(v["axis_accel_m_s2"]) * ratio)
         return m, replace(options, accel_mode=ACCEL_MODE_CHOICES[v["mode"]])
 
 
@@ -340,11 +342,11 @@ class ServoLag(Effect):
 class Compliance(Effect):
     def current(self, model):
         post = model.post_values(self.name) or {}
-        c = model.machine.structure.radial_compliance_mm_per_mm_s2 * 1e6
+        c = s2_to_um_per_m_s2(model.machine.structure.radial_compliance_mm_per_mm_s2)
         return {"compliance_um_per_m_s2": post.get("compliance_um_per_m_s2", c)}
 
     def apply_to_trace(self, trace, t_s, pos_mm, v):
-        c = float(v["compliance_um_per_m_s2"]) * 1e-6  # um/(m/s^2) -> mm/(mm/s^2) = s^2
+        c = um_per_m_s2_to_s2(float(v["compliance_um_per_m_s2"]))  # mm/(mm/s^2) = s^2
         return pos_mm + compliance_offset_mm(trace.acc_mm_s2, c)
 
 
@@ -354,7 +356,7 @@ class ServoDelay(Effect):
         return {"delay_ms": post.get("delay_ms", 0.0)}
 
     def apply_to_trace(self, trace, t_s, pos_mm, v):
-        return delayed_mm(t_s, pos_mm, float(v["delay_ms"]) / 1000.0)
+        return delayed_mm(t_s, pos_mm, ms_to_s(float(v["delay_ms"])))
 
 
 EFFECTS: dict[str, Effect] = {e.name: e for e in (
@@ -508,7 +510,7 @@ def corrected_machine(model: Model) -> MachineSpec:
     comp = model.post_values("compliance")
     if comp is not None:
         m = replace(m, structure=StructureSpec(
-            radial_compliance_mm_per_mm_s2=float(comp["compliance_um_per_m_s2"]) * 1e-6))
+            radial_compliance_mm_per_mm_s2=um_per_m_s2_to_s2(float(comp["compliance_um_per_m_s2"]))))
     return m
 
 

@@ -24,8 +24,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ncsim.errors import UsageError
-
-UM_PER_MM = 1000.0
+from ncsim.units import UM_PER_MM
 
 
 def _xy(pos_mm, axes=(0, 1)) -> np.ndarray:

@@ -1,9 +1,10 @@
 """Measured data: oscilloscope-like traces (CSV) and published summary values (TOML).
 
-This is the input side of the sim-to-real gap diagnosis (issue 5). Everything is converted to
-ncsim's internal units at load time (mm, s, mm/s, mm/s^2). Every problem with a file is a
-one-line :class:`~ncsim.errors.MeasuredDataError` naming the file and the line, the column or
-the key path.
+This is the input side of the sim-to-real gap diagnosis. Everything is converted to ncsim's
+internal units at load time (mm, s, mm/s, mm/s^2; factors from ``ncsim.units``). Every problem
+with a file is a one-line :class:`~ncsim.errors.MeasuredDataError` naming the file and the
+line, the column or the key path; summary TOML files are read by ``ncsim.config``, with its
+error policy.
 
 Trace CSV, default column convention (header row required, ``#`` comment lines allowed,
 delimiter ``,`` ``;`` or tab)::
@@ -24,29 +25,21 @@ from __future__ import annotations
 
 import csv
 import math
-import tomllib
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path as FsPath
 from typing import Any, Mapping
 
 import numpy as np
 
+from ncsim.config import Problems, finite, non_negative, parse_toml, positive, read_text
 from ncsim.errors import MeasuredDataError, UsageError
+from ncsim.units import DEG_PER_RAD, FACTORS, UM_PER_MM, mm_s_to_mm_min
 
 AXES = ("x", "y", "z")
 
 # ---------------------------------------------------------------------------------------------
 # Units
 # ---------------------------------------------------------------------------------------------
-
-#: quantity kind -> unit name -> factor to the internal unit (s, mm, mm/s, mm/s^2)
-UNIT_FACTORS: dict[str, dict[str, float]] = {
-    "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "min": 60.0},
-    "length": {"mm": 1.0, "um": 1e-3, "m": 1e3, "in": 25.4, "nm": 1e-6},
-    "velocity": {"mm/s": 1.0, "mm/min": 1.0 / 60.0, "m/min": 1000.0 / 60.0, "m/s": 1000.0,
-                 "um/s": 1e-3, "in/min": 25.4 / 60.0},
-    "acceleration": {"mm/s2": 1.0, "m/s2": 1000.0, "um/s2": 1e-3},
-}
 
 _UNIT_ALIASES = {"µm": "um", "μm": "um", "µs": "us", "μs": "us", "sec": "s", "inch": "in",
                  "mm_s": "mm/s", "mm_min": "mm/min", "m_min": "m/min", "m_s": "m/s", "um_s": "um/s",
@@ -80,7 +73,7 @@ def normalise_unit(unit: str) -> str:
 
 def unit_factor(kind: str, unit: str) -> float:
     """Factor from ``unit`` to ncsim's internal unit of ``kind`` (raises ``KeyError``)."""
-    return UNIT_FACTORS[kind][normalise_unit(unit)]
+    return FACTORS[kind][normalise_unit(unit)]
 
 
 def unit_from_suffix(name: str, kind: str) -> str | None:
@@ -89,7 +82,7 @@ def unit_from_suffix(name: str, kind: str) -> str | None:
     Only units of the expected quantity ``kind`` are considered, longest suffix first."""
     lowered = name.strip().lower()
     candidates = []
-    for unit in UNIT_FACTORS[kind]:
+    for unit in FACTORS[kind]:
         suffix = "_" + unit.replace("/", "_")
         if lowered.endswith(suffix):
             candidates.append((len(suffix), unit))
@@ -325,7 +318,7 @@ def _resolve_columns(file: str, header: list[str], columns: Mapping[str, str] | 
             factor = unit_factor(kind, unit)
         except KeyError:
             raise MeasuredDataError(f"unknown {kind} unit {unit!r} (known: "
-                                    f"{', '.join(UNIT_FACTORS[kind])})", file=file,
+                                    f"{', '.join(FACTORS[kind])})", file=file,
                                     column=name) from None
         out[key] = (i, name, factor)
     return out
@@ -370,14 +363,8 @@ def _check_time(file: str, t: np.ndarray, linenos: list[int]) -> None:
 
 
 def _read_text(file) -> tuple[str, str]:
-    p = FsPath(file)
     name = str(file)
-    try:
-        return name, p.read_text(encoding="utf-8-sig")
-    except OSError as exc:
-        raise MeasuredDataError(f"cannot read file: {exc.strerror}", file=name) from None
-    except UnicodeDecodeError:
-        raise MeasuredDataError("not a UTF-8 text file", file=name) from None
+    return name, read_text(file, "file", error=MeasuredDataError)
 
 
 def load_measured_csv(file, *, columns: Mapping[str, str] | None = None,
@@ -475,7 +462,7 @@ def write_measured_csv(trace: MeasuredTrace, file, *, header_comment: str = "") 
     cols = [("t_s", trace.t_s)]
     cols += [(f"{a}_mm", trace.pos_mm[:, i]) for i, a in enumerate(AXES)]
     if trace.feed_mm_s is not None:
-        cols.append(("feed_mm_min", trace.feed_mm_s * 60.0))
+        cols.append(("feed_mm_min", mm_s_to_mm_min(trace.feed_mm_s)))
     if trace.vel_mm_s is not None:
         cols += [(f"v{a}_mm_s", trace.vel_mm_s[:, i]) for i, a in enumerate(AXES)]
     if trace.cmd_pos_mm is not None:
@@ -568,9 +555,10 @@ def load_umich_csv(file, *, drop_unreliable: bool = True) -> MeasuredTrace:
 # ---------------------------------------------------------------------------------------------
 
 #: TOML key base -> (quantity kind, {unit suffix: factor to the stored unit}, stored field)
-_VELOCITY_SUFFIXES = {"m_min": 1000.0 / 60.0, "mm_min": 1.0 / 60.0, "mm_s": 1.0}
+_VELOCITY_SUFFIXES = {"m_min": FACTORS["velocity"]["m/min"],
+                      "mm_min": FACTORS["velocity"]["mm/min"], "mm_s": 1.0}
 _SUMMARY_QUANTITIES: dict[str, tuple[dict[str, float], str]] = {
-    "radius": ({"mm": 1.0, "um": 1e-3}, "radius_mm"),
+    "radius": ({"mm": 1.0, "um": FACTORS["length"]["um"]}, "radius_mm"),
     "radius_before": ({"mm": 1.0}, "radius_before_mm"),
     "radius_after": ({"mm": 1.0}, "radius_after_mm"),
     "programmed_feed": (_VELOCITY_SUFFIXES, "programmed_feed_mm_s"),
@@ -578,15 +566,18 @@ _SUMMARY_QUANTITIES: dict[str, tuple[dict[str, float], str]] = {
     "steady_feed": (_VELOCITY_SUFFIXES, "steady_feed_mm_s"),
     "max_feed": (_VELOCITY_SUFFIXES, "max_feed_mm_s"),
     "max_feed_below": (_VELOCITY_SUFFIXES, "max_feed_below_mm_s"),
-    "normal_accel": ({"m_s2": 1000.0, "mm_s2": 1.0}, "normal_accel_mm_s2"),
-    "tangential_jerk": ({"m_s3": 1000.0, "mm_s3": 1.0}, "tangential_jerk_mm_s3"),
-    "G": ({"um": 1.0, "mm": 1000.0}, "G_um"),
-    "Fmax": ({"um": 1.0, "mm": 1000.0}, "Fmax_um"),
-    "Fmin": ({"um": 1.0, "mm": 1000.0}, "Fmin_um"),
-    "time": ({"s": 1.0, "ms": 1e-3, "min": 60.0}, "time_s"),
-    "angle": ({"deg": 1.0, "rad": 180.0 / math.pi}, "angle_deg"),
-    "incline": ({"deg": 1.0, "rad": 180.0 / math.pi}, "incline_deg"),
+    "normal_accel": ({"m_s2": FACTORS["acceleration"]["m/s2"], "mm_s2": 1.0}, "normal_accel_mm_s2"),
+    "tangential_jerk": ({"m_s3": FACTORS["jerk"]["m/s3"], "mm_s3": 1.0}, "tangential_jerk_mm_s3"),
+    "G": ({"um": 1.0, "mm": UM_PER_MM}, "G_um"),           # ISO 230-4 indexes are kept in um
+    "Fmax": ({"um": 1.0, "mm": UM_PER_MM}, "Fmax_um"),
+    "Fmin": ({"um": 1.0, "mm": UM_PER_MM}, "Fmin_um"),
+    "time": ({"s": 1.0, "ms": FACTORS["time"]["ms"], "min": FACTORS["time"]["min"]}, "time_s"),
+    "angle": ({"deg": 1.0, "rad": DEG_PER_RAD}, "angle_deg"),
+    "incline": ({"deg": 1.0, "rad": DEG_PER_RAD}, "incline_deg"),
 }
+_POSITIVE_QUANTITIES = {"radius", "radius_before", "radius_after", "time"}
+_REQUIRED_QUANTITIES = {"circle": ("radius",), "transition": ("radius_before", "radius_after"),
+                        "cycle": ("time",)}
 _COMMON_TEXT_KEYS = {"id", "program", "source", "note", "trajectory"}
 _COMMON_BOOL_KEYS = {"reaches_programmed", "has_steady_phase", "has_ramps"}
 #: entry table -> allowed quantity bases
@@ -678,90 +669,101 @@ def _split_quantity_key(key: str) -> tuple[str, str] | None:
 
 
 def summary_from_dict(data: Mapping[str, Any], file: str = "<summary>") -> MeasuredSummary:
-    """Validate a parsed summary TOML; the first problem raises with its key path."""
-
-    def fail(path: str, message: str):
-        raise MeasuredDataError(f"{path}: {message}", file=file)
-
-    for key in data:
-        if key not in ("summary", *_ENTRY_QUANTITIES):
-            fail(key, f"unknown table (known: summary, {', '.join(_ENTRY_QUANTITIES)})")
-    head = data.get("summary", {})
-    if not isinstance(head, dict):
-        fail("summary", "must be a table")
-    for key in head:
-        if key not in ("description", "machine", "source"):
-            fail(f"summary.{key}", "unknown key (known: description, machine, source)")
-        if not isinstance(head[key], str):
-            fail(f"summary.{key}", "must be a string")
+    """Validate a parsed summary TOML; every problem is collected into one
+    :class:`~ncsim.errors.MeasuredDataError` naming its key path (``circle[2].G_um``)."""
+    c = Problems(file, MeasuredDataError)
+    c.unknown(data, "", ("summary", *_ENTRY_QUANTITIES),
+              f"unknown table (known: summary, {', '.join(_ENTRY_QUANTITIES)})")
+    head = c.table(data, "summary")
+    c.unknown(head, "summary", ("description", "machine", "source"),
+              "unknown key (known: description, machine, source)")
+    info = {k: c.string(head, "summary", k) for k in ("description", "machine", "source")}
     entries: list[SummaryEntry] = []
     seen: dict[str, str] = {}
-    for kind, allowed in _ENTRY_QUANTITIES.items():
+    for kind in _ENTRY_QUANTITIES:
         items = data.get(kind, [])
         if not isinstance(items, list) or not all(isinstance(x, dict) for x in items):
-            fail(kind, f"must be an array of tables ([[{kind}]])")
+            c.add(kind, f"must be an array of tables ([[{kind}]])")
+            continue
         for n, item in enumerate(items):
-            path = f"{kind}[{n}]"
-            values: dict[str, float] = {}
-            flags: dict[str, bool] = {}
-            ints: dict[str, int] = {}
-            text: dict[str, str] = {}
-            for key, v in item.items():
-                kp = f"{path}.{key}"
-                if key in _COMMON_TEXT_KEYS:
-                    if not isinstance(v, str) or not v:
-                        fail(kp, "must be a non-empty string")
-                    text[key] = v
-                elif key in _COMMON_BOOL_KEYS:
-                    if not isinstance(v, bool):
-                        fail(kp, "must be true or false")
-                    flags[key] = v
-                elif key in _ENTRY_INT_KEYS[kind]:
-                    if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-                        fail(kp, "must be a non-negative integer")
-                    ints[key] = v
-                else:
-                    split = _split_quantity_key(key)
-                    if split is None or split[0] not in allowed:
-                        known = ", ".join(sorted(f"{b}_<unit>" for b in allowed))
-                        fail(kp, f"unknown key (known quantities for [[{kind}]]: {known})")
-                    base, suffix = split
-                    factors, stored = _SUMMARY_QUANTITIES[base]
-                    if suffix not in factors:
-                        fail(kp, f"unknown unit '{suffix}' for {base} (use {base}_"
-                                 + f" or {base}_".join(factors) + ")")
-                    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                        fail(kp, f"must be a number, got {v!r}")
-                    if stored in values:
-                        fail(kp, f"{base} given twice (in two units)")
-                    if base in ("radius", "radius_before", "radius_after", "time") and v <= 0:
-                        fail(kp, "must be positive")
-                    if base.endswith("feed") and v < 0:
-                        fail(kp, "must not be negative")
-                    values[stored] = float(v) * factors[suffix]
-            if "id" not in text:
-                fail(f"{path}.id", "missing key")
-            if text["id"] in seen:
-                fail(f"{path}.id", f"duplicate id {text['id']!r} (also {seen[text['id']]})")
-            seen[text["id"]] = path
-            if kind == "circle" and "radius_mm" not in values:
-                fail(f"{path}.radius_mm", "missing key (a circle needs its nominal radius)")
-            if kind == "transition":
-                for need in ("radius_before_mm", "radius_after_mm"):
-                    if need not in values:
-                        fail(f"{path}.{need}", "missing key")
-            if kind == "cycle" and "time_s" not in values:
-                fail(f"{path}.time_s", "missing key")
-            if "G_um" in values and values["G_um"] < 0:
-                fail(f"{path}.G_um", "circularity G cannot be negative")
-            if "Fmax_um" in values and "Fmin_um" in values and values["Fmax_um"] < values["Fmin_um"]:
-                fail(f"{path}.Fmax_um", "Fmax is below Fmin")
-            entries.append(SummaryEntry(kind=kind, id=text["id"], values=values, flags=flags,
-                                        ints=ints, program=text.get("program"),
-                                        trajectory=text.get("trajectory"),
-                                        source=text.get("source", ""), note=text.get("note", "")))
-    return MeasuredSummary(source=head.get("source", file), description=head.get("description", ""),
-                           machine=head.get("machine"), entries=tuple(entries))
+            entry = _summary_entry(c, kind, f"{kind}[{n}]", item, seen)
+            if entry is not None:
+                entries.append(entry)
+    c.raise_if_any()
+    return MeasuredSummary(source=info["source"] or file, description=info["description"] or "",
+                           machine=info["machine"], entries=tuple(entries))
+
+
+def _summary_entry(c: Problems, kind: str, path: str, item: Mapping[str, Any],
+                   seen: dict[str, str]) -> SummaryEntry | None:
+    """One ``[[kind]]`` table (its problems go to ``c``; None if it has any)."""
+    n_problems = len(c.items)
+    allowed = _ENTRY_QUANTITIES[kind]
+    values: dict[str, float] = {}
+    flags: dict[str, bool] = {}
+    ints: dict[str, int] = {}
+    text: dict[str, str] = {}
+    for key in item:
+        if key in _COMMON_TEXT_KEYS:
+            value = c.string(item, path, key, non_empty=True)
+            if value is not None:
+                text[key] = value
+        elif key in _COMMON_BOOL_KEYS:
+            value = c.boolean(item, path, key)
+            if value is not None:
+                flags[key] = value
+        elif key in _ENTRY_INT_KEYS[kind]:
+            value = c.integer(item, path, key, minimum=0)
+            if value is not None:
+                ints[key] = value
+        else:
+            _summary_quantity(c, kind, path, item, key, values)
+    if "id" not in item:
+        c.add(f"{path}.id", "missing key")
+    elif "id" in text:
+        if text["id"] in seen:
+            c.add(f"{path}.id", f"duplicate id {text['id']!r} (also {seen[text['id']]})")
+        seen.setdefault(text["id"], path)
+    given = {split[0] for split in map(_split_quantity_key, item) if split is not None}
+    for base in _REQUIRED_QUANTITIES.get(kind, ()):
+        if base not in given:
+            c.add(f"{path}.{_SUMMARY_QUANTITIES[base][1]}", "missing key" + (
+                " (a circle needs its nominal radius)" if kind == "circle" else ""))
+    if values.get("G_um", 0.0) < 0:
+        c.add(f"{path}.G_um", "circularity G cannot be negative")
+    if "Fmax_um" in values and "Fmin_um" in values and values["Fmax_um"] < values["Fmin_um"]:
+        c.add(f"{path}.Fmax_um", "Fmax is below Fmin")
+    if len(c.items) > n_problems:
+        return None
+    return SummaryEntry(kind=kind, id=text["id"], values=values, flags=flags, ints=ints,
+                        program=text.get("program"), trajectory=text.get("trajectory"),
+                        source=text.get("source", ""), note=text.get("note", ""))
+
+
+def _summary_quantity(c: Problems, kind: str, path: str, item: Mapping[str, Any], key: str,
+                      values: dict[str, float]) -> None:
+    """A quantity key ``<base>_<unit>`` of an entry, stored in ``values`` in its stored unit."""
+    allowed = _ENTRY_QUANTITIES[kind]
+    split = _split_quantity_key(key)
+    if split is None or split[0] not in allowed:
+        known = ", ".join(sorted(f"{b}_<unit>" for b in allowed))
+        c.add(f"{path}.{key}", f"unknown key (known quantities for [[{kind}]]: {known})")
+        return
+    base, suffix = split
+    factors, stored = _SUMMARY_QUANTITIES[base]
+    if suffix not in factors:
+        c.add(f"{path}.{key}", f"unknown unit '{suffix}' for {base} (use {base}_"
+                               + f" or {base}_".join(factors) + ")")
+        return
+    check = (positive if base in _POSITIVE_QUANTITIES
+             else non_negative if base.endswith("feed") else finite)
+    value = c.number(item, path, key, check=check, convert=lambda v: v * factors[suffix])
+    if value is None:
+        return
+    if stored in values:
+        c.add(f"{path}.{key}", f"{base} given twice (in two units)")
+        return
+    values[stored] = value
 
 
 def load_measured_summary(file) -> MeasuredSummary:
@@ -775,8 +777,4 @@ def load_measured_summary(file) -> MeasuredSummary:
     ``trajectory``, ``source`` (citation) and ``note``.
     """
     name, text = _read_text(file)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise MeasuredDataError(f"not valid TOML: {exc}", file=name) from None
-    return summary_from_dict(data, name)
+    return summary_from_dict(parse_toml(text, name, error=MeasuredDataError), name)

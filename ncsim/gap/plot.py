@@ -14,6 +14,7 @@ from pathlib import Path as FsPath
 import numpy as np
 
 from ncsim.errors import UsageError
+from ncsim.units import mm_to_um, s_to_ms
 
 
 def _plt():
@@ -56,15 +57,15 @@ def plot_trace(d, evaluator, prefix: str, fmt: str = "png") -> list[str]:
     ax[0].set_ylabel("path feed (mm/s)")
     ax[0].legend(loc="upper right", fontsize=8)
     ax[0].set_title(f"gap diagnosis: {d.program or ''} against {d.source}")
-    ax[1].plot(meas.t_s[al_c.valid], al_c.distance_mm[al_c.valid] * 1e3, ".", ms=2, color="tab:blue",
+    ax[1].plot(meas.t_s[al_c.valid], mm_to_um(al_c.distance_mm[al_c.valid]), ".", ms=2, color="tab:blue",
                label="measured to corrected path")
-    ax[1].plot(meas.t_s[al_b.valid], al_b.distance_mm[al_b.valid] * 1e3, ".", ms=1.5, color="tab:red",
+    ax[1].plot(meas.t_s[al_b.valid], mm_to_um(al_b.distance_mm[al_b.valid]), ".", ms=1.5, color="tab:red",
                alpha=0.5, label="measured to base path")
     ax[1].set_ylabel("contour deviation (um)")
     ax[1].legend(loc="upper right", fontsize=8)
-    ax[2].plot(meas.t_s[al_b.valid], al_b.time_error_s[al_b.valid] * 1e3, lw=1, color="tab:red",
+    ax[2].plot(meas.t_s[al_b.valid], s_to_ms(al_b.time_error_s[al_b.valid]), lw=1, color="tab:red",
                label="base")
-    ax[2].plot(meas.t_s[al_c.valid], al_c.time_error_s[al_c.valid] * 1e3, lw=1, color="tab:blue",
+    ax[2].plot(meas.t_s[al_c.valid], s_to_ms(al_c.time_error_s[al_c.valid]), lw=1, color="tab:blue",
                label="corrected")
     ax[2].set_ylabel("time error at the place (ms)")
     ax[2].set_xlabel("measured time (s)")

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 from ncsim.gap.effects import EFFECTS
+from ncsim.units import mm_to_um, s_to_ms
 
 
 def _params(params: dict) -> str:
@@ -43,11 +44,11 @@ def format_trace(d) -> str:
     lines = [f"gap diagnosis: {d.program or '<path>'} against {d.source}, base model '{d.base}'",
              f"  alignment: time shift {al['time_shift_s']:.4f} s ({al['shift_method']}), "
              f"zero offset ({', '.join(f'{v:.4f}' for v in al['offset_mm'])}) mm "
-             f"({al['offset_method']}); position noise {d.scales.noise_mm * 1e3:.2f} um",
+             f"({al['offset_method']}); position noise {mm_to_um(d.scales.noise_mm):.2f} um",
              f"  base gap {g.gap:.3g}: feed {g.feed_rms_mm_s:.3f} mm/s rms, time {g.time_rms_ms:.2f} ms rms, "
              f"cycle time {g.cycle_time_error_s:+.4f} s, contour {g.contour_rms_um:.2f} um rms "
-             f"(scales: feed {d.scales.feed_mm_s:.3g} mm/s, time {d.scales.time_s * 1e3:.3g} ms, "
-             f"contour {d.scales.contour_mm * 1e3:.3g} um)", ""]
+             f"(scales: feed {d.scales.feed_mm_s:.3g} mm/s, time {s_to_ms(d.scales.time_s):.3g} ms, "
+             f"contour {mm_to_um(d.scales.contour_mm):.3g} um)", ""]
     lines += _fit_table(d.fits, d.combined)
     lines += _localisation(d.localisation_before, "where the base model departs")
     if d.localisation_after:
@@ -172,13 +173,13 @@ def format_servo(d) -> str:
              f"{'mm/s' if d.signal == 'velocity' else 'mm'} over {d.gap_before.n_samples} values",
              f"{'rank':>4} {'effect':<12} {'shrink':>8} {'gap':>8} {'rms':>9} {'lag ms':>7}  fitted parameters"]
     for i, f in enumerate(d.fits, 1):
-        lag = "" if f.lag_s is None else f"{f.lag_s * 1e3:7.2f}"
+        lag = "" if f.lag_s is None else f"{s_to_ms(f.lag_s):7.2f}"
         lines.append(f"{i:>4} {f.effect:<12} {_pct(f.shrink_percent):>8} {f.gap_after.gap:8.3g} "
                      f"{f.gap_after.rms:9.4g} {lag:>7}  {_params(f.params)}")
     le = d.lag_estimate
     if le is not None and math.isfinite(le.pooled_ramp_delay_s):
         lines.append(f"  independent estimate (servo.estimate_lag): ramp delay "
-                     f"{le.pooled_ramp_delay_s * 1e3:.2f} ms over {int(sum(le.n_ramp_samples))} ramp samples")
+                     f"{s_to_ms(le.pooled_ramp_delay_s):.2f} ms over {int(sum(le.n_ramp_samples))} ramp samples")
     best = d.best
     verdict = ("better than" if d.distinguishable else "indistinguishable from")
     others = [f for f in d.fits if f.effect in ("servo_lag", "servo_delay") and f is not best]

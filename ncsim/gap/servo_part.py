@@ -49,6 +49,7 @@ from ncsim.gap.diagnose import fit_values, free_params, shrink_percent
 from ncsim.machine import MachineSpec
 from ncsim.gap.measured import MeasuredTrace
 from ncsim.gap.truth.servo import LagEstimate, estimate_lag, three_significant_figures_step_mm
+from ncsim.units import ms_to_s, s_to_ms, um_per_m_s2_to_s2
 
 SKIP_S = 0.1
 HUBER_K = 3.0
@@ -167,12 +168,12 @@ class ServoEvaluator:
                     if name == "servo_lag":
                         y = servo_lag_mm(p.t_fine, y, float(v["kv_1_s"]), float(v["ffw_weight"]))
                     elif name == "servo_delay":
-                        d = float(v["delay_ms"]) / 1000.0
+                        d = ms_to_s(float(v["delay_ms"]))
                         y = np.column_stack([np.interp(p.t_fine - d, p.t_fine, y[:, k]) for k in range(3)])
                     elif name == "compliance":
                         if self.signal != "position":
                             raise UsageError("compliance acts on positions only")
-                        y = y + compliance_offset_mm(p.a_fine, float(v["compliance_um_per_m_s2"]) * 1e-6)
+                        y = y + compliance_offset_mm(p.a_fine, um_per_m_s2_to_s2(float(v["compliance_um_per_m_s2"])))
                     else:
                         raise UsageError(f"{name} is not a servo-part effect")
             out.append(np.column_stack([np.interp(p.t_meas, p.t_fine, y[:, k]) for k in range(3)]))
@@ -207,14 +208,14 @@ class ServoFit:
         if self.effect == "servo_lag":
             return (1.0 - float(self.params["ffw_weight"])) / float(self.params["kv_1_s"])
         if self.effect == "servo_delay":
-            return float(self.params["delay_ms"]) / 1000.0
+            return ms_to_s(float(self.params["delay_ms"]))
         return None
 
     def as_dict(self) -> dict:
         return {"effect": self.effect, "params": _jsonable(self.params),
                 "gap_before": self.gap_before.as_dict(), "gap_after": self.gap_after.as_dict(),
                 "shrink_percent": self.shrink_percent,
-                "lag_ms": None if self.lag_s is None else self.lag_s * 1e3,
+                "lag_ms": None if self.lag_s is None else s_to_ms(self.lag_s),
                 "n_evals": self.n_evals}
 
 
@@ -254,10 +255,10 @@ class ServoDiagnosis:
                 "effects": [f.as_dict() for f in self.fits],
                 "best": self.best.effect, "lag_models_distinguishable": self.distinguishable,
                 "lag_estimate": None if le is None else {
-                    "ramp_delay_ms": le.pooled_ramp_delay_s * 1e3,
-                    "ramp_delay_iqr_ms": le.pooled_ramp_delay_iqr_s * 1e3,
+                    "ramp_delay_ms": s_to_ms(le.pooled_ramp_delay_s),
+                    "ramp_delay_iqr_ms": s_to_ms(le.pooled_ramp_delay_iqr_s),
                     "ramp_samples": int(np.sum(le.n_ramp_samples)),
-                    "position_lag_ms": le.pooled_position_lag_s * 1e3},
+                    "position_lag_ms": s_to_ms(le.pooled_position_lag_s)},
                 "notes": list(self.notes), "seconds": self.seconds}
 
 

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 
 from ncsim.nc.frames import IDENTITY, Frame
 from ncsim.path import BRISK, DRIVE, SOFT
+from ncsim.units import MM_PER_INCH
 
 CIP = 10   # motion codes beyond G0..G3
 CT = 11
@@ -78,7 +79,7 @@ G_UNSUPPORTED: dict[int, str] = {
 }
 
 INCH_FEED = {700}
-MM_PER_INCH_CODES = {70: 25.4, 700: 25.4, 71: 1.0, 710: 1.0}
+MM_PER_INCH_CODES = {70: MM_PER_INCH, 700: MM_PER_INCH, 71: 1.0, 710: 1.0}
 
 ACCEL_COMMANDS = {"SOFT": SOFT, "BRISK": BRISK, "DRIVE": DRIVE}
 COMPRESSOR_COMMANDS = ("COMPOF", "COMPON", "COMPCURV", "COMPCAD", "COMPSURF")
@@ -150,7 +151,7 @@ class ModalState:
     @property
     def feed_scale(self) -> float:
         """mm per programmed feed length unit (25.4 under G700 only: G70 keeps metric feed)."""
-        return 25.4 if self.units in INCH_FEED else 1.0
+        return MM_PER_INCH if self.units in INCH_FEED else 1.0
 
     def set_frames(self) -> None:
         """Recompute the combined frame and the WCS position (the machine does not move)."""

@@ -22,6 +22,7 @@ import math
 import os
 from dataclasses import dataclass, field
 
+from ncsim.config import read_text
 from ncsim.errors import MeasuredDataError, UsageError
 from ncsim.report.summary import SCHEMA_VERSION
 
@@ -51,15 +52,12 @@ class CheckResult:
 def load_baseline(path: str | os.PathLike) -> dict:
     """A summary saved by ``ncsim run --json``; any problem is one MeasuredDataError line."""
     name = os.fspath(path)
+    text = read_text(path, "baseline summary", error=MeasuredDataError)
     try:
-        with open(path, encoding="utf-8") as f:
-            data = json.load(f)
-    except OSError as exc:
-        raise MeasuredDataError(f"cannot read baseline summary: {exc.strerror}", file=name) from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        where = f" (line {exc.lineno}, column {exc.colno})" if isinstance(exc, json.JSONDecodeError) else ""
-        raise MeasuredDataError(f"baseline summary is not valid JSON{where}: "
-                                f"{getattr(exc, 'msg', exc)}", file=name) from None
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise MeasuredDataError(f"baseline summary is not valid JSON (line {exc.lineno}, column "
+                                f"{exc.colno}): {exc.msg}", file=name) from None
     if not isinstance(data, dict):
         raise MeasuredDataError("baseline summary must be a JSON object (from `ncsim run --json`)",
                                 file=name)

@@ -35,6 +35,7 @@ from ncsim.gap.measured import MeasuredTrace
 from ncsim.path import Path
 from ncsim.gap.truth.servo import ServoParams, simulate_servo
 from ncsim.gap.truth.synth import ScopeConfig, degrade
+from ncsim.units import s_to_ms, um_per_m_s2_to_s2
 
 COMMAND_DT_S = 1e-3
 SERVO_DT_S = 5e-5
@@ -86,7 +87,7 @@ class Case:
         s = self.scope
         return {"index": self.index, "effect": self.effect, "params": dict(self.params),
                 "base": self.base, "lead_s": self.lead_s, "seed": self.seed,
-                "scope": {"period_ms": s.period_s * 1e3, "noise_um": s.noise_um,
+                "scope": {"period_ms": s_to_ms(s.period_s), "noise_um": s.noise_um,
                           "quant_um": s.quant_um, "time_offset_s": s.time_offset_s,
                           "pos_offset_mm": list(s.pos_offset_mm),
                           "dropout_fraction": s.dropout_fraction,
@@ -137,7 +138,7 @@ def truth_model(machine: MachineSpec, case: Case) -> tuple[Model, ServoParams]:
         if case.effect == "servo_lag":
             servo.update(kv_1_s=case.params["kv_1_s"], ffw_weight=case.params["ffw_weight"])
         elif case.effect == "compliance":
-            c_s2 = case.params["compliance_um_per_m_s2"] * 1e-6
+            c_s2 = um_per_m_s2_to_s2(case.params["compliance_um_per_m_s2"])
             servo.update(structure_freq_hz=1.0 / (2.0 * math.pi * math.sqrt(c_s2)),
                          structure_damping=STRUCTURE_DAMPING)
     return model, ServoParams(**servo)

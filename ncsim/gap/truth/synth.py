@@ -28,6 +28,7 @@ import numpy as np
 
 from ncsim.errors import UsageError
 from ncsim.gap.measured import MeasuredTrace
+from ncsim.units import s_to_ms, um_to_mm
 
 MIN_PERIOD_S = 1e-3
 MAX_PERIOD_S = 12e-3
@@ -51,7 +52,7 @@ class ScopeConfig:
 
     def __post_init__(self) -> None:
         if not (MIN_PERIOD_S - 1e-15 <= self.period_s <= MAX_PERIOD_S + 1e-15):
-            raise UsageError(f"sampling period must be in [1, 12] ms, got {self.period_s * 1e3:g} ms")
+            raise UsageError(f"sampling period must be in [1, 12] ms, got {s_to_ms(self.period_s):g} ms")
         for name in ("noise_um", "quant_um", "feed_noise_mm_s"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
@@ -113,8 +114,8 @@ def degrade(t_s, pos_mm, config: ScopeConfig, *, seed: int, vel_mm_s=None, cmd_p
 
     rec = at(p) + np.asarray(config.pos_offset_mm, dtype=np.float64)
     if config.noise_um > 0:
-        rec = rec + rng.normal(0.0, config.noise_um * 1e-3, rec.shape)
-    rec = quantise(rec, config.quant_um * 1e-3)
+        rec = rec + rng.normal(0.0, um_to_mm(config.noise_um), rec.shape)
+    rec = quantise(rec, um_to_mm(config.quant_um))
     feed = None
     if config.record_feed:
         if vel_mm_s is not None:
