@@ -94,7 +94,7 @@ def _chord(start_mm, end_mm, normal):
     return start + 0.5 * chord_p, c_len, left
 
 
-def circle_through_points(p1, p2, p3, normal_hint=None):
+def circle_through_points(p1, p2, p3):
     """Centre and CCW normal of the circle through three points (840D CIP).
     Returns (center, normal) or None if the points are collinear."""
     p1, p2, p3 = (np.asarray(p, dtype=np.float64) for p in (p1, p2, p3))

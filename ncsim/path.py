@@ -214,10 +214,6 @@ class Path:
         return PathBuilder(files).build()
 
 
-def line_length_mm(start_mm: np.ndarray, end_mm: np.ndarray) -> np.ndarray:
-    return np.linalg.norm(np.asarray(end_mm) - np.asarray(start_mm), axis=-1)
-
-
 def arc_length_mm(radius_mm, sweep_rad, helix_mm):
     """Length of a circular helix: sqrt((r * sweep)^2 + rise^2)."""
     return np.hypot(np.asarray(radius_mm) * np.asarray(sweep_rad), helix_mm)

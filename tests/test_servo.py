@@ -6,8 +6,8 @@ import pytest
 
 from ncsim.errors import UsageError
 from ncsim.gap.measured import MeasuredTrace
-from ncsim.gap.truth.servo import (ServoParams, estimate_lag, simulate_servo,
-                         three_significant_figures_step_mm, transfer_function)
+from ncsim.gap.lag import estimate_lag, three_significant_figures_step_mm
+from ncsim.gap.truth.servo import ServoParams, simulate_servo, transfer_function
 
 
 def line_command(v_mm_s, duration_s, dt=1e-3):

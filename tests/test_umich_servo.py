@@ -1,7 +1,7 @@
 """The servo part (commanded against actual) on real data: two University of Michigan SMART
 mill runs (tests/data/umich, CC0, 10 Hz). The expectations are physical: the recovered lag is
 a few milliseconds and the same in both runs, and it agrees with the independent ramp-delay
-estimate of ncsim.servo.estimate_lag (a different method on the same data)."""
+estimate of ncsim.gap.lag.estimate_lag (a different method on the same data)."""
 from __future__ import annotations
 
 from pathlib import Path

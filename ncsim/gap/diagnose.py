@@ -119,7 +119,6 @@ class ModelCache:
         self._plans: dict = {}
         self._limits: dict = {}
         self.max_plans = max_plans
-        self.n_plans = 0
 
     def limits(self, model: Model):
         """Stage 1 of the planner (``limits.path_limits``), shared by models that differ only in
@@ -147,7 +146,6 @@ class ModelCache:
         if len(self._plans) >= self.max_plans:
             self._plans.pop(next(iter(self._plans)))
         self._plans[key] = (t, tr, total, motion)
-        self.n_plans += 1
         return self._plans[key]
 
     def trace(self, model: Model) -> ModelTrace:

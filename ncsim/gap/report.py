@@ -178,7 +178,7 @@ def format_servo(d) -> str:
                      f"{f.gap_after.rms:9.4g} {lag:>7}  {_params(f.params)}")
     le = d.lag_estimate
     if le is not None and math.isfinite(le.pooled_ramp_delay_s):
-        lines.append(f"  independent estimate (servo.estimate_lag): ramp delay "
+        lines.append(f"  independent estimate (lag.estimate_lag): ramp delay "
                      f"{s_to_ms(le.pooled_ramp_delay_s):.2f} ms over {int(sum(le.n_ramp_samples))} ramp samples")
     best = d.best
     verdict = ("better than" if d.distinguishable else "indistinguishable from")

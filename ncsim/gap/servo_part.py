@@ -48,7 +48,7 @@ from ncsim.errors import UsageError
 from ncsim.gap.diagnose import fit_values, free_params, shrink_percent
 from ncsim.machine import MachineSpec
 from ncsim.gap.measured import MeasuredTrace
-from ncsim.gap.truth.servo import LagEstimate, estimate_lag, three_significant_figures_step_mm
+from ncsim.gap.lag import LagEstimate, estimate_lag, three_significant_figures_step_mm
 from ncsim.units import ms_to_s, s_to_ms, um_per_m_s2_to_s2
 
 SKIP_S = 0.1

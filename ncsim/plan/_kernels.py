@@ -1,9 +1,9 @@
-"""Sequential inner loops of the planner, compiled with numba when it is available.
+"""Sequential inner loops of the planner, compiled with numba.
 
 The look-ahead's backward/forward passes are recurrences over knots (each knot's feed
 depends on its neighbour's), which numpy cannot vectorise; a compiled loop does a million
-knots in milliseconds. Without numba the same code runs as plain Python (slowly but
-identically). ``tests/test_ramps.py`` checks these scalars against ``ncsim.ramps``.
+knots in milliseconds. ``tests/test_ramps.py`` checks these scalars against
+``ncsim.plan.ramps``.
 """
 from __future__ import annotations
 
@@ -11,13 +11,7 @@ import math
 
 import numpy as np
 
-try:  # pragma: no cover - exercised by whichever environment runs the tests
-    from numba import njit
-except ImportError:  # pragma: no cover
-    def njit(*args, **kwargs):
-        if args and callable(args[0]):
-            return args[0]
-        return lambda f: f
+from numba import njit
 
 
 @njit(cache=True)
@@ -377,63 +371,6 @@ def reach_array(v0, distance, jerk, accel):
     for i in range(distance.shape[0]):
         out[i] = ramp_reach_scalar(v0[i], distance[i], jerk[i], accel[i])
     return out
-
-
-_DIGIT_PAIRS = np.frombuffer("".join(f"{i:02d}" for i in range(100)).encode("ascii"),
-                             dtype=np.uint8).copy()
-
-
-@njit(cache=True)
-def format_csv_rows(ints, neg, kind, decimals, labels, label_len, out):
-    """Write CSV rows into ``out`` (uint8) and return the byte count (see ncsim.csvio).
-
-    Per column ``c``: ``kind[c]`` 0 = fixed point (``ints`` holds round(|x| 10^d), ``neg`` the
-    sign, ``decimals[c]`` digits after the point), 1 = integer (|value| and sign), 2 = label
-    (``ints`` holds the code, ``labels[c, code, :label_len[c, code]]`` its bytes). Digits come
-    two at a time (one unsigned division by 100 and a 100-entry table).
-    """
-    m, k = ints.shape
-    pos = 0
-    digits = np.empty(24, dtype=np.uint8)
-    pairs = _DIGIT_PAIRS
-    for r in range(m):
-        for c in range(k):
-            if kind[c] == 2:
-                code = ints[r, c]
-                n = label_len[c, code]
-                for i in range(n):
-                    out[pos + i] = labels[c, code, i]
-                pos += n
-            else:
-                if neg[r, c]:
-                    out[pos] = 45  # '-'
-                    pos += 1
-                q = np.uint64(ints[r, c])
-                d = decimals[c] if kind[c] == 0 else 0
-                nd = 0                        # digits, least significant first
-                while q >= 100:
-                    rem = q % np.uint64(100)
-                    q //= np.uint64(100)
-                    digits[nd] = pairs[2 * rem + 1]
-                    digits[nd + 1] = pairs[2 * rem]
-                    nd += 2
-                digits[nd] = pairs[2 * q + 1]
-                nd += 1
-                if q >= 10:
-                    digits[nd] = pairs[2 * q]
-                    nd += 1
-                while nd <= d:                # zero-pad: all decimals and one integer digit
-                    digits[nd] = 48
-                    nd += 1
-                for i in range(nd - 1, -1, -1):
-                    out[pos] = digits[i]
-                    pos += 1
-                    if d > 0 and i == d:
-                        out[pos] = 46  # '.'
-                        pos += 1
-            out[pos] = 44 if c < k - 1 else 10  # ',' or newline
-            pos += 1
-    return pos
 
 
 @njit(cache=True)

@@ -307,10 +307,8 @@ class _Ruckig1:
     """One reusable 1-DoF ruckig solver (objects are reused across blocks: cheaper)."""
 
     def __init__(self):
-        try:
-            import ruckig
-        except ImportError as exc:  # pragma: no cover - ruckig is a dependency
-            raise UsageError(f"the cross-check needs the ruckig package: {exc}") from None
+        import ruckig
+
         self.ruckig = ruckig
         self.solver = ruckig.Ruckig(1)
         self.inp = ruckig.InputParameter(1)

@@ -1,4 +1,4 @@
-"""Trace CSV files: fast fixed-point writing, and reading back (issues 4, 6).
+"""Trace CSV files: fast fixed-point writing, and reading back.
 
 A trace CSV has one header line of column names (units in the names) and one row per sample::
 
@@ -11,7 +11,7 @@ their labels (``ncu_path_jerk``, ``A``...).
 
 Writing never formats numbers with Python. Per chunk of rows (memory stays bounded) each
 value becomes the integer ``round(x * 10^d)`` (numpy), and a compiled loop
-(``_kernels.format_csv_rows``) writes the rows' bytes: sign, digits two at a time from a
+(``csvformat.format_csv_rows``) writes the rows' bytes: sign, digits two at a time from a
 100-entry table, point, labels. A pure-numpy formatter (:func:`format_rows`) does the same
 with vectorised scatters; it is used for the rare chunks with values outside the integer path
 (inf, nan, |x| 10^d >= 1e18, formatted by Python one by one) and tests hold the two to
@@ -249,9 +249,9 @@ def format_rows(columns: list[np.ndarray], kinds: list[str], decimals: list[int]
 
 
 def _format_rows_compiled(columns, kinds, decimals, labels, names) -> bytes | None:
-    """The same rows as the numpy path, written by a compiled loop (``_kernels.format_csv_rows``);
+    """The same rows as the numpy path, written by a compiled loop (``csvformat.format_csv_rows``);
     None when a value needs Python's formatting (inf, nan, |x| 10^d >= 1e18)."""
-    from ncsim.plan._kernels import format_csv_rows
+    from ncsim.report.csvformat import format_csv_rows
 
     m, k = len(columns[0]), len(columns)
     ints = np.empty((m, k), dtype=np.int64)
