@@ -62,7 +62,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from ncsim.gap.align import AlignPhase, Alignment, align, estimate_noise_mm
-from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, TRACE_EFFECTS, Model, _jsonable,
+from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, TRACE_EFFECTS, Model, jsonable,
                       apply_trace_effects, corrected_machine, get_effect, make_base,
                       model_description)
 from ncsim.errors import UsageError
@@ -233,7 +233,9 @@ def _end_of_motion_s(t_s, speed, threshold) -> float:
     return float(t_s[moving[-1]]) if len(moving) else float(t_s[-1])
 
 
-def _compare_speed(mt: ModelTrace, scales: GapScales) -> np.ndarray:
+def compare_speed_mm_s(mt: ModelTrace, scales: GapScales) -> np.ndarray:
+    """The model speed compared with the measured one: through the same operator (a central
+    difference over the speed window) unless the model trace already carries it."""
     if mt.compare_speed_mm_s is not None:
         return mt.compare_speed_mm_s
     return derived_speed_mm_s(mt.t_s, mt.pos_mm, scales.speed_window_s)
@@ -244,7 +246,7 @@ def gap_metrics(al: Alignment, mt: ModelTrace, scales: GapScales) -> GapMetrics:
     valid = al.valid
     top = max(float(np.max(mt.feed_mm_s)), float(np.max(al.feed_mm_s)), 1e-9)
     thr = MOVING_SHARE * top
-    model_speed = _compare_speed(mt, scales)
+    model_speed = compare_speed_mm_s(mt, scales)
     v_model = np.interp(al.t_sim_s, mt.t_s, model_speed)
     moving = valid & ((al.feed_mm_s > thr) | (v_model > thr))
     # measured samples in motion outside the model's span (the model ended or started too
@@ -358,7 +360,7 @@ class EffectFit:
 
     def as_dict(self) -> dict:
         return {"effect": self.effect, "title": EFFECTS[self.effect].title if self.effect in EFFECTS else "",
-                "added": self.added, "params": _jsonable(self.params),
+                "added": self.added, "params": jsonable(self.params),
                 "gap_before": self.gap_before.as_dict(), "gap_after": self.gap_after.as_dict(),
                 "shrink_percent": self.shrink_percent, "metric_shrink_percent": self.metric_shrink(),
                 "n_evals": self.n_evals, "seconds": self.seconds,
@@ -560,7 +562,7 @@ def localise(al: Alignment, mt: ModelTrace, path: Path, scales: GapScales,
              measured: MeasuredTrace, *, top_blocks: int = 10) -> dict:
     """Where the gap is (module docstring, step 4): per block, per phase, per angular sector of
     arcs, and the ISO 230-4 indexes of full circles (measured and model)."""
-    model_speed = _compare_speed(mt, scales)
+    model_speed = compare_speed_mm_s(mt, scales)
     v_model = np.interp(al.t_sim_s, mt.t_s, model_speed)
     feed_err = al.feed_mm_s - v_model
     dist_um = mm_to_um(al.distance_mm)

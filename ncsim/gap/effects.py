@@ -490,11 +490,12 @@ def model_description(model: Model) -> dict:
         if e.command_only and not e.is_active(model):
             continue
         out[name] = {"active": e.is_active(model),
-                     "params": _jsonable(e.current(model)) if e.is_active(model) or e.kind == "planner" else {}}
+                     "params": jsonable(e.current(model)) if e.is_active(model) or e.kind == "planner" else {}}
     return out
 
 
-def _jsonable(values: Mapping[str, object]) -> dict:
+def jsonable(values: Mapping[str, object]) -> dict:
+    """Parameter values as JSON types: strings stay, integers become int, the rest float."""
     return {k: (v if isinstance(v, str) else (int(v) if isinstance(v, (int, np.integer)) else float(v)))
             for k, v in values.items()}
 

@@ -41,7 +41,7 @@ def _save(fig, prefix: str, suffix: str, fmt: str) -> str:
 def plot_trace(d, evaluator, prefix: str, fmt: str = "png") -> list[str]:
     """Feed, contour deviation and time error: measured against base and corrected models."""
     plt = _plt()
-    from ncsim.gap.diagnose import _compare_speed
+    from ncsim.gap.diagnose import compare_speed_mm_s
     final = d.corrected_model
     _, al_b, mt_b = evaluator.evaluate(d.base_model, full=True)
     _, al_c, mt_c = evaluator.evaluate(final, full=True)
@@ -49,10 +49,10 @@ def plot_trace(d, evaluator, prefix: str, fmt: str = "png") -> list[str]:
     meas = evaluator.measured
     fig, ax = plt.subplots(3, 1, figsize=(11, 9), sharex=True)
     ax[0].plot(meas.t_s, evaluator.measured_speed, ".", ms=2, color="k", label="measured")
-    ax[0].plot(mt_b.t_s + al_b.time_shift_s, _compare_speed(mt_b, scales), lw=1, color="tab:red",
+    ax[0].plot(mt_b.t_s + al_b.time_shift_s, compare_speed_mm_s(mt_b, scales), lw=1, color="tab:red",
                label=f"base model ({d.base})")
     label = d.combined.effect if d.combined is not None else d.best.effect
-    ax[0].plot(mt_c.t_s + al_c.time_shift_s, _compare_speed(mt_c, scales), lw=1, color="tab:blue",
+    ax[0].plot(mt_c.t_s + al_c.time_shift_s, compare_speed_mm_s(mt_c, scales), lw=1, color="tab:blue",
                label=f"corrected ({label})")
     ax[0].set_ylabel("path feed (mm/s)")
     ax[0].legend(loc="upper right", fontsize=8)
@@ -105,9 +105,9 @@ def plot_summary(d, evaluator, prefix: str, fmt: str = "png") -> list[str]:
 def plot_servo(d, evaluator, prefix: str, fmt: str = "png") -> list[str]:
     """Command, actual and the best model's prediction for the axis that moves most."""
     plt = _plt()
-    from ncsim.gap.servo_part import _post_model
+    from ncsim.gap.servo_part import single_effect_model
     best = d.best
-    pred = evaluator.predict(_post_model(best.effect, best.params))
+    pred = evaluator.predict(single_effect_model(best.effect, best.params))
     idx = evaluator.idx
     t = evaluator.measured.t_s[idx]
     act = evaluator.act[idx]

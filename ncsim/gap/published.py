@@ -37,7 +37,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ncsim.gap.effects import Model, _jsonable, get_effect, make_base, model_description
+from ncsim.gap.effects import Model, jsonable, get_effect, make_base, model_description
 from ncsim.errors import UsageError
 from ncsim.gap.diagnose import EffectFit, ModelCache, RankedFits, combine, default_candidates, fit_effect, shrink_percent
 from ncsim.nc.interpret import interpret_file
@@ -260,11 +260,11 @@ class SummaryDiagnosis(RankedFits):
                 "effects": [self._fit_dict(f) for f in self.fits],
                 "ranking_kinematics": [f.effect for f in self.ranked("kinematics")],
                 "ranking_radial": [f.effect for f in self.ranked("radial")],
-                "best_kinematics": {"effect": best_kin.effect, "params": _jsonable(best_kin.params),
+                "best_kinematics": {"effect": best_kin.effect, "params": jsonable(best_kin.params),
                                     "shrink_percent": shrink_percent(self.gap_before.kinematics,
                                                                      best_kin.gap_after.kinematics)},
                 "best_radial": {"effect": best_radial.effect,
-                                "params": _jsonable(best_radial.params),
+                                "params": jsonable(best_radial.params),
                                 "share_explained": best_radial.gap_after.radial_share_explained},
                 "combined": self._fit_dict(self.combined) if self.combined is not None else None,
                 "matched": [{"id": m.entry.id, "program": m.program, "block": m.block}

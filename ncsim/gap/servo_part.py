@@ -43,7 +43,7 @@ from typing import Sequence
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 
-from ncsim.gap.effects import EFFECTS, Model, _jsonable, compliance_offset_mm, servo_lag_mm
+from ncsim.gap.effects import EFFECTS, Model, jsonable, compliance_offset_mm, servo_lag_mm
 from ncsim.errors import UsageError
 from ncsim.gap.diagnose import fit_values, free_params, shrink_percent
 from ncsim.machine import MachineSpec
@@ -212,7 +212,7 @@ class ServoFit:
         return None
 
     def as_dict(self) -> dict:
-        return {"effect": self.effect, "params": _jsonable(self.params),
+        return {"effect": self.effect, "params": jsonable(self.params),
                 "gap_before": self.gap_before.as_dict(), "gap_after": self.gap_after.as_dict(),
                 "shrink_percent": self.shrink_percent,
                 "lag_ms": None if self.lag_s is None else s_to_ms(self.lag_s),
@@ -275,15 +275,15 @@ def diagnose_servo(measured: MeasuredTrace, *, candidates: Sequence[str] | None 
         effect = EFFECTS[name]
         if effect.kind != "trace":
             raise UsageError(f"{name} is a planner effect, not a servo-part candidate")
-        base = Model(machine=machine) if machine is not None else _PlainModel()
-        start = effect.check(effect.current(base) if machine is not None else _defaults(effect))
+        start = effect.check(effect.current(Model(machine=machine)) if machine is not None
+                             else _START_VALUES[name])
         n0 = ev.n_evals
 
         def objective(values, effect=effect):
-            return ev.evaluate(_post_model(effect.name, values)).gap ** 2
+            return ev.evaluate(single_effect_model(effect.name, values)).gap ** 2
 
         values, _ = fit_values(objective, effect.params, start, free_params(effect, True))
-        after = ev.evaluate(_post_model(name, values))
+        after = ev.evaluate(single_effect_model(name, values))
         fits.append(ServoFit(name, effect.check(values), before, after, ev.n_evals - n0))
     fits.sort(key=lambda f: f.gap_after.gap)
     le = None
@@ -300,23 +300,22 @@ def diagnose_servo(measured: MeasuredTrace, *, candidates: Sequence[str] | None 
     return d
 
 
-class _PlainModel:
-    post: tuple = ()
-
-
-def _defaults(effect) -> dict:
-    init = {"servo_lag": {"kv_1_s": 30.0, "ffw_weight": 0.0}, "servo_delay": {"delay_ms": 5.0},
-            "compliance": {"compliance_um_per_m_s2": 50.0}}
-    return init[effect.name]
+#: where the fit of each servo-part effect starts when no machine file gives a value
+_START_VALUES = {"servo_lag": {"kv_1_s": 30.0, "ffw_weight": 0.0}, "servo_delay": {"delay_ms": 5.0},
+                 "compliance": {"compliance_um_per_m_s2": 50.0}}
 
 
 @dataclass(frozen=True)
-class _PostOnly:
+class TraceEffectModel:
+    """Trace effects alone (what :meth:`ServoEvaluator.predict` reads of a model): the servo
+    part needs no machine or planner."""
+
     post: tuple = field(default=())
 
 
-def _post_model(name: str, values: dict) -> _PostOnly:
-    return _PostOnly(post=((name, tuple(sorted(values.items()))),))
+def single_effect_model(name: str, values: dict) -> TraceEffectModel:
+    """The model made of the one trace effect ``name`` at ``values``."""
+    return TraceEffectModel(post=((name, tuple(sorted(values.items()))),))
 
 
 # ---------------------------------------------------------------------------------------------
