@@ -37,9 +37,9 @@ from ncsim.plan.limits import path_limits
 from ncsim.plan.lookahead import plan
 from ncsim.machine import load_machine
 from ncsim.report.summary import summary
-from ncsim.simulate import Simulation
+from ncsim.pipeline import Simulation
 from ncsim.motion import FULL_MODEL
-from ncsim.simulate import simulate
+from ncsim.pipeline import simulate
 t_import = time.perf_counter() - t0
 file = sys.argv[1]
 m = load_machine("mikron")
@@ -61,7 +61,7 @@ print(json.dumps(dict(import_s=t_import, warm_s=warm_s, parse_s=parse_s, interpr
 
 TRACE = r"""
 import json, sys, time, os, tempfile
-from ncsim.simulate import simulate
+from ncsim.pipeline import simulate
 from ncsim.plan.sample import sample_motion
 from ncsim.report.csvio import write_trace_csv
 sim = simulate(sys.argv[1], "mikron")

@@ -6,10 +6,10 @@ import json
 import pytest
 from click.testing import CliRunner
 
-from ncsim.simulate import expand_programs, run_batch, simulate_one
+from ncsim.pipeline import expand_programs, run_batch, simulate_one
 from ncsim.cli.batch import batch
 from ncsim.errors import UsageError
-from ncsim.simulate import simulate
+from ncsim.pipeline import simulate
 
 PROGRAMS = ["programs/circle_r2p5_f6000.mpf", "programs/circle_r30_f9000.mpf",
             "programs/spiral_semi_f6000.mpf"]

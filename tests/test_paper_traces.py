@@ -20,7 +20,7 @@ from ncsim.machine import load_machine
 from ncsim.motion import Phase
 from ncsim.path import SOFT
 from ncsim.plan.sample import sample_motion
-from ncsim.simulate import simulate
+from ncsim.pipeline import simulate
 
 PROGRAMS = Path(__file__).resolve().parent.parent / "programs"
 M_MIN = 1000.0 / 60.0  # mm/s per m/min

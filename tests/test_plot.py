@@ -23,7 +23,7 @@ def invoke(*args):
 
 @pytest.fixture(scope="module")
 def bore_sim(repo_root):
-    from ncsim.simulate import simulate
+    from ncsim.pipeline import simulate
     return simulate(repo_root / "programs" / "bore_d25_f5984.mpf", "mikron")
 
 

@@ -26,7 +26,7 @@ def batch(patterns, machine_name, jobs, scheduler, as_json):
     Exit status 0 when every program ran, 2 when any could not be simulated.
     """
     from ncsim.machine import load_machine
-    from ncsim.simulate import expand_programs, run_batch
+    from ncsim.pipeline import expand_programs, run_batch
 
     programs = expand_programs(patterns)
     machine = load_machine(machine_name)

@@ -222,7 +222,7 @@ class Progress:
     """Stage-by-stage progress on stderr, drawn only on a terminal (silent in logs and CI).
 
     Calling it with a stage name begins that stage (and ends the one before): it is the
-    ``progress`` callback of ``ncsim.simulate.simulate``; ``stage`` does the same for the
+    ``progress`` callback of ``ncsim.pipeline.simulate``; ``stage`` does the same for the
     command's own stages. While a stage runs, a daemon thread redraws the line every
     ``TICK_S`` so that the elapsed time moves on long stages (interpreting a million blocks
     takes seconds)."""
@@ -314,7 +314,7 @@ def run_cmd(program, machine_name, as_json, top, trace_file, dt_s, trace_columns
     """Simulate PROGRAM on MACHINE: cycle time, programmed against reached feed, and the
     blocks that lose the most time with their line and the limit that holds them."""
     from ncsim.report import summary as report
-    from ncsim.simulate import STAGES, simulate
+    from ncsim.pipeline import STAGES, simulate
 
     options = model_options(params)
     if not trace_file and (dt_s is not None or trace_columns != "default"):
@@ -426,7 +426,7 @@ def plot_cmd(program, machine_name, trace_file, output, dt_s, title, **params):
         if not machine_name:
             raise UsageError("--machine is required with a PROGRAM (e.g. --machine mikron)")
         from ncsim.plan.sample import sample_motion
-        from ncsim.simulate import STAGES, simulate
+        from ncsim.pipeline import STAGES, simulate
         progress = Progress([*STAGES, "sample", "draw"])
         try:
             sim = simulate(program, machine_name, options, setup_offsets=params["setup_file"],
@@ -483,7 +483,7 @@ def check_cmd(program, machine_name, max_time_s, min_feed_ratio, max_limited_fra
     (with the blocks to look at), 2 on bad input."""
     from ncsim.report import summary as report
     from ncsim.report.check import evaluate, load_baseline, require_thresholds
-    from ncsim.simulate import STAGES, simulate
+    from ncsim.pipeline import STAGES, simulate
 
     options = model_options(params)
     require_thresholds(max_time_s, min_feed_ratio, max_limited_fraction, baseline_file,

@@ -101,7 +101,7 @@ def feed_table(motion) -> list[dict]:
 
 
 def summary(sim, *, top: int = 10, include_blocks: bool = True) -> dict:
-    """The documented JSON summary of a :class:`~ncsim.simulate.Simulation`."""
+    """The documented JSON summary of a :class:`~ncsim.pipeline.Simulation`."""
     motion = sim.motion
     path = motion.path
     tbl = time_by_limit_s(motion)

@@ -1,0 +1,227 @@
+"""The gap diagnosis in one call: what ``ncsim gap`` decides, as a library function.
+
+:func:`diagnose` takes the measured file, the program(s) it was measured on and a machine, and
+decides:
+
+* **how to read the measurement** (``fmt="auto"``): ``*.toml`` is published values
+  (``measured.load_measured_summary``, e.g. ``measured/paper_table3.toml``); a CSV whose header
+  has ``X1_ActualPosition`` is a UMich SMART mill file (``measured.load_umich_csv``); any other
+  CSV is a trace in the default convention, with ``columns`` / ``units`` mappings and
+  ``sample_period_s`` when it has no time column (``measured.load_measured_csv``);
+* **which diagnosis**: published values against every program (``published.diagnose_summary``,
+  base ``axis-only`` by default); a trace against one program (``diagnose.diagnose``, base
+  ``full`` by default). A trace that also holds the commanded positions is split
+  (``servo_part.diagnose_split``): the *planner part* (ncsim against the command, planner
+  effects only) and the *servo part* (command against actual, trace effects only); with no
+  program only the servo part is possible;
+* **what goes back into the machine file** (:meth:`GapResult.corrected_machine_toml`): the
+  planner diagnosis's corrected model (or the bare machine) plus the servo part's best effect,
+  with notes for what a machine file cannot hold (the acceleration mode, a feed-forward
+  weight, a delay).
+
+The :class:`GapResult` it returns is what the command prints: ``as_dict()`` (``--json``),
+``text()``, ``plot(prefix)``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path as FsPath
+from typing import Mapping, Sequence
+
+from ncsim.errors import UsageError
+from ncsim.gap.effects import PLANNER_EFFECTS, Model, corrected_machine, get_effect
+from ncsim.gap.measured import (MeasuredTrace, load_measured_csv, load_measured_summary,
+                                load_umich_csv)
+from ncsim.machine import MachineSpec, dump_machine_toml, load_machine
+
+FORMATS = ("auto", "csv", "umich", "summary")
+
+
+@dataclass
+class GapResult:
+    """A diagnosis of one measured file (module docstring). ``kind`` says which parts are set:
+    ``"summary"`` (``planner`` is a ``published.SummaryDiagnosis``), ``"trace"`` (``planner``
+    is a ``diagnose.Diagnosis``), ``"split"`` (``planner`` of the command and ``servo``) or
+    ``"servo"`` (``servo`` alone, a ``servo_part.ServoDiagnosis``)."""
+
+    kind: str
+    measured_file: str
+    machine: MachineSpec
+    planner: object | None = None
+    servo: object | None = None
+    measured: MeasuredTrace | None = None   # the trace (``kind`` trace, split, servo)
+    path: object | None = None              # the interpreted program (trace, split)
+
+    def as_dict(self) -> dict:
+        """The ``ncsim gap --json`` document (README "Sim-to-real gap")."""
+        if self.kind == "summary":
+            return self.planner.as_dict()
+        if self.kind == "split":
+            return {"planner_part": self.planner.as_dict(), "servo_part": self.servo.as_dict()}
+        if self.kind == "trace":
+            return {"diagnosis": self.planner.as_dict()}
+        return {"servo_part": self.servo.as_dict()}
+
+    def text(self) -> str:
+        from ncsim.gap.report import format_servo, format_summary, format_trace
+        if self.kind == "summary":
+            return format_summary(self.planner)
+        parts = []
+        if self.planner is not None:
+            head = "planner part (ncsim against the command): " if self.kind == "split" else ""
+            parts.append(head + format_trace(self.planner))
+        if self.servo is not None:
+            parts.append(format_servo(self.servo))
+        return "\n".join(parts)
+
+    def plot(self, prefix: str, fmt: str = "png") -> list[str]:
+        """Write the figures ``PREFIX-summary|-servo|-gap.FMT``; returns the file names."""
+        from ncsim.gap import plot
+        if self.kind == "summary":
+            return plot.plot_summary(self.planner, None, prefix, fmt)
+        files = []
+        if self.servo is not None:
+            from ncsim.gap.servo_part import ServoEvaluator
+            files += plot.plot_servo(self.servo, ServoEvaluator(self.measured, self.servo.signal),
+                                     prefix, fmt)
+        if self.planner is not None:
+            from ncsim.gap.diagnose import Evaluator
+            target = self.measured.command() if self.measured.has_command else self.measured
+            files += plot.plot_trace(self.planner, Evaluator(self.path, target), prefix, fmt)
+        return files
+
+    def corrected_model(self) -> tuple[Model, list[tuple[str, dict]]]:
+        """The corrected model and the fitted ``(effect, params)`` it adds to the machine."""
+        model, fitted = Model(machine=self.machine), []
+        if self.planner is not None:
+            model = self.planner.corrected_model
+            final = self.planner.combined or self.planner.best
+            for e in final.effects or (final.effect,):
+                fitted.append((e, {p.name: final.params[p.name] for p in get_effect(e).params
+                                   if p.name in final.params}))
+        if self.servo is not None:
+            best = self.servo.best
+            model = model.with_post(best.effect, best.params)
+            fitted.append((best.effect, best.params))
+        return model, fitted
+
+    def corrected_machine(self) -> MachineSpec:
+        """The machine with the fitted parameters (``effects.corrected_machine``)."""
+        spec = corrected_machine(self.corrected_model()[0])
+        desc = (spec.description + " -- " if spec.description else "") + "corrected by ncsim gap"
+        return replace(spec, description=desc)
+
+    def corrected_machine_toml(self) -> str:
+        """The corrected machine file, with a header naming the fit and what it cannot hold."""
+        _, fitted = self.corrected_model()
+        header = [f"Machine file corrected by `ncsim gap` against {self.measured_file}.",
+                  "Fitted: " + "; ".join(f"{n} " + ", ".join(f"{k}={_value(v)}" for k, v in p.items())
+                                         for n, p in fitted)]
+        header += [note for name, params in fitted for note in _machine_file_notes(name, params)]
+        return dump_machine_toml(self.corrected_machine(), "\n".join(header))
+
+
+def _value(v) -> str:
+    return v if isinstance(v, str) else f"{float(v):.6g}"
+
+
+def _machine_file_notes(name: str, params: Mapping) -> list[str]:
+    """What a fitted effect sets that a machine file has no key for."""
+    if name == "accel_mode":
+        return [f"accel_mode {params.get('mode')}: the acceleration mode is set by the program "
+                "(SOFT/BRISK), not by the machine file"]
+    if name == "servo_lag" and float(params.get("ffw_weight", 0.0)) > 0:
+        return [f"servo_lag ffw_weight {float(params['ffw_weight']):.3g}: no machine-file key"]
+    if name == "servo_delay":
+        return [f"servo_delay {float(params['delay_ms']):.3g} ms: no machine-file key"]
+    return []
+
+
+def detect_format(file: str | FsPath, fmt: str = "auto") -> str:
+    """``summary``, ``umich`` or ``csv`` (module docstring); ``fmt`` other than auto wins."""
+    if fmt not in FORMATS:
+        raise UsageError(f"unknown measured format {fmt!r} (known: {', '.join(FORMATS)})")
+    if fmt != "auto":
+        return fmt
+    if FsPath(file).suffix.lower() == ".toml":
+        return "summary"
+    try:
+        with open(file, encoding="utf-8-sig", errors="replace") as fh:
+            head = fh.readline()
+    except OSError:
+        return "csv"  # the loader reports the file error with its name
+    return "umich" if "X1_ActualPosition" in head else "csv"
+
+
+def _candidates(effects: Sequence[str] | None) -> list[str] | None:
+    if effects is None:
+        return None
+    names = [e.strip() for e in effects if e.strip()]
+    if not names:
+        raise UsageError("--effects needs at least one effect name")
+    for n in names:
+        get_effect(n)
+    return names
+
+
+def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
+             machine: MachineSpec | str | FsPath = "mikron", *, fmt: str = "auto",
+             columns: Mapping[str, str] | None = None, units: Mapping[str, str] | None = None,
+             sample_period_s: float | None = None, base: str | None = None,
+             effects: Sequence[str] | None = None, combine: bool = True) -> GapResult:
+    """Diagnose the gap between ``programs`` simulated on ``machine`` and the ``measured`` file:
+    where it is, which unmodelled effect causes it and how much of it each effect closes
+    (module docstring). ``effects`` are the candidate effects (default: all that apply),
+    ``base`` the base model (``full``, ``axis-only``, ``full-minus-EFFECT``)."""
+    from ncsim.gap.servo_part import SERVO_CANDIDATES
+
+    spec = machine if isinstance(machine, MachineSpec) else load_machine(machine)
+    programs = [str(p) for p in programs]
+    file = str(measured)
+    kind = detect_format(file, fmt)
+    cands = _candidates(effects)
+    if kind == "summary":
+        from ncsim.gap.published import diagnose_summary
+        if not programs:
+            raise UsageError("published values need the PROGRAM(s) they were measured on")
+        d = diagnose_summary(programs, spec, load_measured_summary(file), base=base or "axis-only",
+                             candidates=cands, do_combine=combine)
+        return GapResult("summary", file, spec, planner=d)
+
+    if kind == "umich":
+        trace = load_umich_csv(file)
+    else:
+        trace = load_measured_csv(file, columns=columns or None, units=units or None,
+                                  sample_period_s=sample_period_s)
+    if len(programs) > 1:
+        raise UsageError(f"a measured trace is diagnosed against one PROGRAM, got {len(programs)}")
+    if not programs:
+        if not trace.has_command:
+            raise UsageError(f"{file}: no PROGRAM given and no commanded positions in the trace: "
+                             "nothing to compare with")
+        from ncsim.gap.servo_part import diagnose_servo
+        servo_cands = None if cands is None else [c for c in cands if c in SERVO_CANDIDATES]
+        if servo_cands == []:
+            raise UsageError("--effects names no servo effect for the servo part "
+                             f"({', '.join(SERVO_CANDIDATES)})")
+        s = diagnose_servo(trace, candidates=servo_cands, machine=spec)
+        return GapResult("servo", file, spec, servo=s, measured=trace)
+
+    from ncsim.gap.diagnose import default_candidates
+    from ncsim.gap.diagnose import diagnose as diagnose_trace
+    from ncsim.nc.interpret import interpret_file
+    path = interpret_file(programs[0], spec).path
+    if not trace.has_command:
+        d = diagnose_trace(path, spec, trace, base=base or "full", candidates=cands,
+                           do_combine=combine, program=programs[0])
+        return GapResult("trace", file, spec, planner=d, measured=trace, path=path)
+    from ncsim.gap.servo_part import diagnose_split
+    planner_cands = [c for c in (cands or default_candidates()) if c in PLANNER_EFFECTS]
+    if not planner_cands:
+        raise UsageError("--effects names no planner effect for the planner part")
+    servo_cands = None if cands is None else [c for c in cands if c in SERVO_CANDIDATES]
+    split = diagnose_split(path, spec, trace, base=base or "full",
+                           planner_candidates=planner_cands, servo_candidates=servo_cands or None,
+                           do_combine=combine, program=programs[0])
+    return GapResult("split", file, spec, planner=split.planner, servo=split.servo,
+                     measured=trace, path=path)
