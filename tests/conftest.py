@@ -6,11 +6,24 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
+#: the project's shared folder beside the checkout (CI puts it there): real programs and
+#: recordings whose licences forbid copies in the repository, so tests read them in place
+SHARED = REPO.parent / "shared"
 
 
 @pytest.fixture(scope="session")
 def repo_root() -> Path:
     return REPO
+
+
+@pytest.fixture(scope="session")
+def shared() -> Path:
+    """``REPO.parent / "shared"``; its absence fails the test (never skips it)."""
+    if not (SHARED / "data" / "real").is_dir():
+        pytest.fail(f"the shared data folder {SHARED} is missing: tests read the real programs and "
+                    f"recordings in place from 'shared' beside the checkout (CI clones the "
+                    f"repository next to it); link or copy it there", pytrace=False)
+    return SHARED
 
 
 @pytest.fixture(scope="session")

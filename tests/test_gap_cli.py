@@ -109,15 +109,15 @@ def test_summary_json(repo_root):
         assert {"effect", "params", "gap_before", "gap_after", "shrink_percent"} <= set(e)
 
 
-def test_command_and_actual_split(tmp_path, repo_root):
+def test_command_and_actual_split(tmp_path, shared):
     """UMich run without a program: the servo part alone."""
-    r = run(["--measured", str(repo_root / "tests/data/umich/experiment_09.csv"), "--json"])
+    experiment = shared / "data/real/umich-smart-cnc-mill-tool-wear/experiment_09.csv"
+    r = run(["--measured", str(experiment), "--json"])
     assert r.exit_code == 0, r.output
     data = json.loads(r.output)
     assert "servo_part" in data and data["servo_part"]["best"] in ("servo_delay", "servo_lag")
     assert 5.0 <= data["servo_part"]["effects"][0]["lag_ms"] <= 10.0
-    r = run(["--measured", str(repo_root / "tests/data/umich/experiment_09.csv"),
-             "--plot", str(tmp_path / "u")])
+    r = run(["--measured", str(experiment), "--plot", str(tmp_path / "u")])
     assert r.exit_code == 0 and "servo part" in r.output
     assert (tmp_path / "u-servo.png").exists()
 

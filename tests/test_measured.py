@@ -12,7 +12,6 @@ from ncsim.gap.measured import (MeasuredTrace, derived_speed_mm_s, load_measured
                             load_measured_summary, load_umich_csv, summary_from_dict,
                             write_measured_csv)
 
-UMICH = Path("/work/shared/data/real/umich-smart-cnc-mill-tool-wear")
 REPO = Path(__file__).resolve().parent.parent
 
 
@@ -154,17 +153,22 @@ def test_derived_speed_of_a_line():
 
 # --- UMich SMART mill ---------------------------------------------------------------------------
 
-def _umich_rows(name):
-    with open(UMICH / name, newline="") as fh:
+@pytest.fixture(scope="module")
+def umich(shared) -> Path:
+    return shared / "data" / "real" / "umich-smart-cnc-mill-tool-wear"
+
+
+def _umich_rows(file):
+    with open(file, newline="") as fh:
         rows = list(csv.reader(fh))
     return rows[0], rows[1:]
 
 
-def test_umich_experiment_01():
-    header, rows = _umich_rows("experiment_01.csv")
+def test_umich_experiment_01(umich):
+    header, rows = _umich_rows(umich / "experiment_01.csv")
     i_f, i_x = header.index("M1_CURRENT_FEEDRATE"), header.index("X1_ActualPosition")
     kept = [k for k, r in enumerate(rows) if float(r[i_f]) != 50.0 and float(r[i_x]) != 198.0]
-    tr = load_umich_csv(UMICH / "experiment_01.csv")
+    tr = load_umich_csv(umich / "experiment_01.csv")
     assert len(tr) == len(kept) == 991
     assert np.allclose(tr.t_s, 0.1 * np.array(kept))
     assert tr.has_command and tr.cmd_vel_mm_s is not None and tr.cmd_acc_mm_s2 is not None
@@ -176,7 +180,7 @@ def test_umich_experiment_01():
     assert tr.pos_mm[0, 1] == float(r0[header.index("Y1_ActualPosition")])
     assert tr.cmd_vel_mm_s[0, 0] == float(r0[header.index("X1_CommandVelocity")])
     assert tr.line[0] == int(float(r0[header.index("M1_sequence_number")]))
-    full = load_umich_csv(UMICH / "experiment_01.csv", drop_unreliable=False)
+    full = load_umich_csv(umich / "experiment_01.csv", drop_unreliable=False)
     assert len(full) == len(rows) and full.segment[-1] == 0
 
 

@@ -1,4 +1,5 @@
-"""The real CAM programs of the THWS data set (SINUMERIK 840D sl, CC BY 4.0; tests/data/thws/SOURCE.md).
+"""The real CAM programs of the THWS data set (SINUMERIK 840D sl, CC BY 4.0), read in place from
+``shared/data/real/thws-spinner-u5-620-nc-programs`` (see its SOURCE.md).
 
 They must give a Path plus warnings for what ncsim does not simulate (B/C axes, TRAORI,
 CYCLE800, D offsets, MCALL drilling), never an error; spot checks are computed by hand from
@@ -16,16 +17,20 @@ import pytest
 from ncsim.nc.interpret import interpret_file
 from ncsim.path import ARC, path_columns
 
-DATA = Path(__file__).parent / "data" / "thws"
-KEYCHAIN = DATA / "Keychain_Schluesselanhaenger.mpf"
-ACHSKREUZ = DATA / "Coordinate_system_representation_Achskreuz.mpf"
-BOTTLE = DATA / "Bottle_opener_Flaschenoeffner.txt"
+KEYCHAIN = "Keychain_Schluesselanhaenger.mpf"
+ACHSKREUZ = "Coordinate_system_representation_Achskreuz.mpf"
+BOTTLE = "Bottle_opener_Flaschenoeffner.txt"
 PROGRAMS = [KEYCHAIN, ACHSKREUZ, BOTTLE]
 
 
 @pytest.fixture(scope="module")
-def results():
-    return {p.name: interpret_file(p) for p in PROGRAMS}
+def thws(shared) -> Path:
+    return shared / "data" / "real" / "thws-spinner-u5-620-nc-programs"
+
+
+@pytest.fixture(scope="module")
+def results(thws):
+    return {name: interpret_file(thws / name) for name in PROGRAMS}
 
 
 def by_line(result, line):
@@ -38,9 +43,9 @@ def arc_lines(path: Path) -> int:
     return sum(1 for t in path.read_text().splitlines() if re.search(r" [IJ]-?[0-9.]", t))
 
 
-@pytest.mark.parametrize("program", PROGRAMS, ids=lambda p: p.stem)
-def test_program_gives_a_path_and_warnings(results, program):
-    r = results[program.name]
+@pytest.mark.parametrize("name", PROGRAMS, ids=lambda n: Path(n).stem)
+def test_program_gives_a_path_and_warnings(results, thws, name):
+    r, program = results[name], thws / name
     assert len(r.path) > 500 and r.path.total_length_mm > 0
     assert r.blocks_executed == len(program.read_text().splitlines())   # straight through, M30 last
     assert int((r.path.kind == ARC).sum()) == arc_lines(program)
@@ -49,7 +54,7 @@ def test_program_gives_a_path_and_warnings(results, program):
 
 
 def test_keychain_spot_checks(results):
-    r = results[KEYCHAIN.name]
+    r = results[KEYCHAIN]
     plunge = by_line(r, 34)                       # N340 G1 Z0.0 F2069.
     assert plunge.start_mm.tolist() == [-10.46, -22.721, 16.0] and plunge.end_mm.tolist() == [-10.46, -22.721, 0.0]
     assert plunge.feed_mm_s == pytest.approx(2069 / 60) and plunge.exact_stop and plunge.cp_mode == 60
@@ -63,7 +68,7 @@ def test_keychain_spot_checks(results):
 
 
 def test_keychain_warnings_and_records(results):
-    r = results[KEYCHAIN.name]
+    r = results[KEYCHAIN]
     lines: dict[int, str] = {}
     for w in r.warnings:
         lines[w.line] = lines.get(w.line, "") + w.message + "|"
@@ -74,21 +79,21 @@ def test_keychain_warnings_and_records(results):
 
 
 def test_achskreuz_traori_is_a_warning(results):
-    r = results[ACHSKREUZ.name]
+    r = results[ACHSKREUZ]
     traori = [w for w in r.warnings if "TRAORI" in w.message]
     assert traori and traori[0].line == 1031
 
 
 def test_bottle_opener_helical_turn_arcs(results):
-    r = results[BOTTLE.name]
+    r = results[BOTTLE]
     helices = r.path.select(r.path.helix_mm != 0)
     assert len(helices) > 100 and np.all(helices.sweep_rad < 2 * math.pi)   # TURN=0
     assert (59, (0.02, 3.0, 1.0)) in [(c.line, c.args) for c in r.cycle832_calls]
 
 
-@pytest.mark.parametrize("program", [KEYCHAIN, BOTTLE], ids=lambda p: p.stem)
-def test_fast_path_equals_lark_path_on_real_programs(results, program):
-    fast, lark = results[program.name], interpret_file(program, fast=False)
+@pytest.mark.parametrize("name", [KEYCHAIN, BOTTLE], ids=lambda n: Path(n).stem)
+def test_fast_path_equals_lark_path_on_real_programs(results, thws, name):
+    fast, lark = results[name], interpret_file(thws / name, fast=False)
     for name in path_columns():
         assert np.array_equal(getattr(fast.path, name), getattr(lark.path, name), equal_nan=True), name
     assert (fast.warnings, fast.recorded, fast.blocks_executed) == (lark.warnings, lark.recorded,

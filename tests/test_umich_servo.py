@@ -1,5 +1,5 @@
 """The servo part (commanded against actual) on real data: two University of Michigan SMART
-mill runs (tests/data/umich, CC0, 10 Hz). The expectations are physical: the recovered lag is
+mill runs (``shared/data/real/umich-smart-cnc-mill-tool-wear``, CC0, 10 Hz). The expectations are physical: the recovered lag is
 a few milliseconds and the same in both runs, and it agrees with the independent ramp-delay
 estimate of ncsim.gap.lag.estimate_lag (a different method on the same data)."""
 from __future__ import annotations
@@ -11,12 +11,10 @@ import pytest
 from ncsim.gap.servo_part import diagnose_servo
 from ncsim.gap.measured import load_umich_csv
 
-DATA = Path(__file__).resolve().parent / "data" / "umich"
-
-
 @pytest.fixture(scope="module")
-def runs():
-    return {name: diagnose_servo(load_umich_csv(DATA / f"{name}.csv"))
+def runs(shared):
+    umich = shared / "data" / "real" / "umich-smart-cnc-mill-tool-wear"
+    return {name: diagnose_servo(load_umich_csv(umich / f"{name}.csv"))
             for name in ("experiment_08", "experiment_09")}
 
 
