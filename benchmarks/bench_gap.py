@@ -1,10 +1,10 @@
-"""Withheld-effect benchmark of the gap diagnosis (issue 5, item 6).
+"""Withheld-effect benchmark of the gap diagnosis.
 
-Every case draws one effect of ``ncsim.effects`` with random parameters (``ncsim.gap_truth``),
+Every case draws one effect of ``ncsim.gap.effects`` with random parameters (``ncsim.gap.truth.cases``),
 builds a measured trace in which it is present -- the planner with the effect on, then each
-axis through the independent RK4 closed-loop simulation of ``ncsim.servo`` (baseline dynamics,
+axis through the independent RK4 closed-loop simulation of ``ncsim.gap.truth.servo`` (baseline dynamics,
 or random loop / structure parameters for the servo and structure effects), then an
-oscilloscope-like recording (``ncsim.synth.degrade``: period 1-12 ms, noise, increment, clock
+oscilloscope-like recording (``ncsim.gap.truth.synth.degrade``: period 1-12 ms, noise, increment, clock
 and zero offsets, dropouts) -- and runs ``ncsim.gap.diagnose`` from the base model that lacks
 the effect, with every effect of the library as a candidate. Effects are drawn in shuffled
 rounds, so that every kind appears about equally often.

@@ -2,7 +2,7 @@
 
 Generates programs of plain blocks ``N.. G1 X.. Y.. Z.. F..`` (every word in every block; with
 ``--arc-every K`` every K-th block is a G2/G3 half circle with I J instead), then times
-``ncsim.parse.parse_text`` and ``ncsim.interpret.interpret_text`` on them. One untimed warm-up
+``ncsim.nc.parse.parse_text`` and ``ncsim.nc.interpret.interpret_text`` on them. One untimed warm-up
 run first loads the grammar and the numba scanner (compiled once, then cached on disk).
 
     python benchmarks/bench_parse.py                      # 200k and 1M blocks

@@ -1,4 +1,4 @@
-"""Speed and scale benchmark (issue 6): CAM-like programs of 10k, 100k and 1M blocks.
+"""Speed and scale benchmark: CAM-like programs of 10k, 100k and 1M blocks.
 
     python benchmarks/bench_scale.py                 # 10k, 100k, 1M blocks
     python benchmarks/bench_scale.py --sizes 10000 100000 --json out.json

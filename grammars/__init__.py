@@ -1,1 +1,1 @@
-"""The Lark grammar of the 840D program language (installed as the data package ncsim.grammars)."""
+"""The Lark grammar of the 840D program language (installed as the data package ncsim.nc.grammars)."""

@@ -1,6 +1,6 @@
 """A slow, plain reference implementation of ncsim's feed-law model, used only as a test oracle.
 
-It follows the rules written in ncsim/plan.py's docstrings, but computes everything with
+It follows the rules written in ncsim/plan/lookahead.py's docstrings, but computes everything with
 scalar Python loops and bisection (no numpy vectorisation, no numba, no closed-form inverses):
 ramp reach by bisection on the ramp distance, eq. 16 peaks by bisection, stopping distances
 by integrating the braking profile, junction times by bisection on the section's s(t). The
@@ -230,7 +230,7 @@ def state_at(sc, x):
 
 
 def creep(p, keep, S, sc, room, first_bad, tol):
-    """Successive approach ramps towards the section's set point (ncsim.plan._pin_unstoppable)."""
+    """Successive approach ramps towards the section's set point (ncsim.plan.lookahead._pin_unstoppable)."""
     J, A = sc["J"], sc["A"]
 
     def approach_stop(v0, V):

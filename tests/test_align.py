@@ -2,7 +2,7 @@
 
 The "simulation" here is built by hand (no planner): a line then a full circle, driven by a
 smooth feed law with phases A/B/C, sampled at 1 ms. The "measured" traces are degraded copies
-(ncsim.synth) whose true simulated instant is known, so every expected value is exact.
+(ncsim.gap.truth.synth) whose true simulated instant is known, so every expected value is exact.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Cross-check against ruckig (ncsim.crosscheck).
+"""Cross-check against ruckig (ncsim.plan.crosscheck).
 
 Hand-built motions whose answer is known: the rest-to-rest jerk-limited line is closed-form
 and equals ruckig's optimum; deliberately slow or too fast feed laws must be classified and

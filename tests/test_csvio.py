@@ -1,4 +1,4 @@
-"""Trace CSV writing and reading (ncsim.csvio).
+"""Trace CSV writing and reading (ncsim.report.csvio).
 
 Expected text comes from Python's own fixed-point formatting (``f"{x:.{d}f}"``), an
 implementation independent of the vectorised writer; round trips are checked within the

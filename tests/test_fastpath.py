@@ -1,4 +1,4 @@
-"""The fast path (ncsim.fastparse + vectorised runs) gives exactly what the Lark path gives.
+"""The fast path (ncsim.nc.fastparse + vectorised runs) gives exactly what the Lark path gives.
 
 Property tests: random lines parse to the same blocks either way; random programs mixing plain
 and non-plain lines give the same Path (every column, bit for bit), the same warnings and the

@@ -2,7 +2,7 @@
 
 Expected values come from closed forms (a time-stretched motion, an offset circle, functions with
 known minima) or from the parameters a withheld-effect truth was built with (the truth comes from
-the independent RK4 loop simulation of ncsim.servo, not from the diagnosis)."""
+the independent RK4 loop simulation of ncsim.gap.truth.servo, not from the diagnosis)."""
 from __future__ import annotations
 
 import math

@@ -1,5 +1,5 @@
 """Servo part of the gap on synthetic command/actual traces: the actual comes from the RK4
-closed-loop simulation of ncsim.servo (or an exact shift), the expected parameters are the ones
+closed-loop simulation of ncsim.gap.truth.servo (or an exact shift), the expected parameters are the ones
 it was run with."""
 from __future__ import annotations
 

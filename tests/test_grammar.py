@@ -1,4 +1,4 @@
-"""grammars/sinumerik.lark through ncsim.parse.parse_block: each construct, and located syntax errors."""
+"""grammars/sinumerik.lark through ncsim.nc.parse.parse_block: each construct, and located syntax errors."""
 from __future__ import annotations
 
 import pytest

@@ -1,4 +1,4 @@
-"""The paper's equations (ncsim.kinematics) against the paper's worked values and closed forms.
+"""The paper's equations (ncsim.plan.kinematics) against the paper's worked values and closed forms.
 
 Expected values are the paper's (m/min, m/s^2, m/s^3, converted here) or closed forms written
 in the test. The MIKRON of Table 1 / §5.2.4 is typed in here, not read from ncsim.

@@ -2,7 +2,7 @@
 
 Expected values are the paper's (tolerance 0.5 %): Table 3 steady feeds, §5.2.2 phase B normal
 acceleration and phase A jerk, §5.3.1 spiral set points (reached or not), §5.4.1 transition
-feeds. Feasibility checks (issue 3, done-when) run on every bundled program: every trace
+feeds. Feasibility checks run on every bundled program: every trace
 sample keeps each axis within 1.01 x its acceleration limit and, in SOFT, the feed law's own
 jerk within 1.01 x the jerk in force; the ruckig cross-check finds no exceeded limit and
 ncsim never faster than ruckig's optimum for the same limits.

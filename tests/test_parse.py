@@ -1,4 +1,4 @@
-"""ncsim.parse: whole programs, files and encodings; the Program/PlainRun structure."""
+"""ncsim.nc.parse: whole programs, files and encodings; the Program/PlainRun structure."""
 from __future__ import annotations
 
 import numpy as np

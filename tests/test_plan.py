@@ -47,7 +47,7 @@ def synthetic_limits(n, cap, jerk, accel, junction_cap=None, dwell=None):
 
 
 def evaluate(motion, t):
-    """s, v, a, j at times t from the pieces (independent of ncsim.sample)."""
+    """s, v, a, j at times t from the pieces (independent of ncsim.plan.sample)."""
     k = np.clip(np.searchsorted(motion.piece_t_s, t, side="right") - 1, 0, len(motion.piece_s_mm) - 1)
     tau = t - motion.piece_t_s[k]
     s0, v0, a0, j = (motion.piece_s_mm[k], motion.piece_v_mm_s[k], motion.piece_a_mm_s2[k],

@@ -1,6 +1,6 @@
 """The fast planner (vectorised + compiled) against the plain reference implementation.
 
-Issue 6: no accuracy lost for speed -- on random programs the cycle times agree within 0.1 %.
+No accuracy lost for speed: on random programs the cycle times agree within 0.1 %.
 The reference (tests/reference_planner.py) uses scalar loops and bisection only.
 """
 from __future__ import annotations
@@ -74,5 +74,5 @@ def test_fast_planner_matches_reference(seed, n_blocks, depth, lookahead):
     limits = path_limits(path, machine, options)
     fast = plan(path, machine, options, limits=limits)
     ref_time, _ = plan_reference(path, machine, options, limits)
-    # issue 6 asks for 0.1 %; the two agree to ~1e-13, so hold them to 1e-6
+    # the target is 0.1 %; the two agree to ~1e-13, so hold them to 1e-6
     assert fast.total_time_s == pytest.approx(ref_time, rel=1e-6)

@@ -1,4 +1,4 @@
-"""`ncsim plot` and ncsim.plot: the written files are real images with the expected panels."""
+"""`ncsim plot` and ncsim.report.plot: the written files are real images with the expected panels."""
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET

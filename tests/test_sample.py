@@ -1,4 +1,4 @@
-"""Sampling a Motion into a Trace (ncsim.sample).
+"""Sampling a Motion into a Trace (ncsim.plan.sample).
 
 Motions are built by hand from closed-form jerk-limited profiles; expected values come from
 ruckig (the same rest-to-rest problem), closed forms on circles/helices and finite differences

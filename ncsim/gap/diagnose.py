@@ -7,7 +7,7 @@ Pipeline (:func:`diagnose`):
    the planned motion sampled on a uniform grid (``MODEL_DT_S``, 2 ms; held at rest for
    ``SETTLE_S`` after the end so that lagging axes can settle) and passed through the model's
    trace effects (servo, structure).
-2. **Alignment** (``ncsim.align``): the measured samples are put on the model's clock and
+2. **Alignment** (``ncsim.gap.align``): the measured samples are put on the model's clock and
    zero and mapped to their place on the model path.
 3. **Gap metrics** (:class:`GapMetrics`), over the aligned samples inside the model's span:
 
@@ -526,7 +526,7 @@ def fit_effect(evaluator, base: Model, effect_name: str, *,
     """Add (or re-fit) one effect on ``base`` and fit its parameters to minimise the gap.
 
     ``evaluator`` is anything with ``evaluate(model)`` returning an object with a ``gap``
-    (:class:`Evaluator` for traces, ``gap_summary.SummaryEvaluator`` for published values)
+    (:class:`Evaluator` for traces, ``published.SummaryEvaluator`` for published values)
     and an ``n_evals`` counter."""
     t0 = time.perf_counter()
     effect = get_effect(effect_name)

@@ -1,6 +1,6 @@
 """Effects: model components a base model may lack, each with physically named parameters.
 
-The sim-to-real gap diagnosis (issue 5, ``ncsim.gap``) starts from a *base model* -- a
+The sim-to-real gap diagnosis (``ncsim.gap.diagnose``) starts from a *base model* -- a
 :class:`Model` with some effects switched off -- and asks, for every effect of the library, how
 much of the gap closes once that effect is added with fitted parameters. An effect is a small
 object with
@@ -16,7 +16,7 @@ object with
 Planner effects change the :class:`~ncsim.machine.MachineSpec` and the
 :class:`~ncsim.motion.ModelOptions`, so the planner (``ncsim.plan``) re-plans. Trace effects act
 on the sampled set point: what the axes and the structure do to the commanded positions. They
-are closed forms that share no code with the time-stepping truth of ``ncsim.servo``:
+are closed forms that share no code with the time-stepping truth of ``ncsim.gap.truth.servo``:
 
 * ``servo_lag``: the exact first-order-hold discretisation of
   ``X/Xc = (k_ff s + Kv) / (s + Kv)`` (P position loop, ideal speed loop, velocity feed-forward

@@ -18,12 +18,12 @@ its resolution (:data:`SCALES`):
   reaches the programmed feed when the paper says it does not, or the reverse) on the same
   scale; ``normal_accel`` (``V^2/R`` at that feed, paper eq. 1), relative, 2 %;
   ``tangential_jerk`` (the jerk of phases A/C), relative, 5 % (slopes read from figures);
-* radial deviations -- ``G``, ``Fmax``, ``Fmin`` (ISO 230-4, ``ncsim.iso230``) of the model's
+* radial deviations -- ``G``, ``Fmax``, ``Fmin`` (ISO 230-4, ``ncsim.gap.iso230``) of the model's
   circle (set point after the model's trace effects, nominal centre and radius from the
   program), absolute, 2 um.
 
 ``gap^2 = mean(kinematic residuals^2) + mean(radial residuals^2)``. Effects are fitted on this
-gap (``gap.fit_effect``) and ranked three ways: on the whole gap, on the kinematics alone and
+gap (``diagnose.fit_effect``) and ranked three ways: on the whole gap, on the kinematics alone and
 on the radial deviations alone. The *share of the radial deviations explained* by a model is
 ``1 - rms(model - measured) / rms(measured)`` over the published G, Fmax and Fmin values (the
 base model, whose circles are exact, explains none of them).

@@ -1,7 +1,7 @@
 """Text rendering of gap diagnoses (``ncsim gap``): ranked tables and where the gap is.
 
-Pure functions from the diagnosis objects of ``ncsim.gap`` (traces), ``ncsim.gap_summary``
-(published values) and ``ncsim.gap_servo`` (commanded against actual) to strings; the JSON form
+Pure functions from the diagnosis objects of ``ncsim.gap`` (traces), ``ncsim.gap.published``
+(published values) and ``ncsim.gap.servo_part`` (commanded against actual) to strings; the JSON form
 is each object's ``as_dict()``.
 """
 from __future__ import annotations
@@ -38,7 +38,7 @@ def _pct(v: float) -> str:
 
 
 def format_trace(d) -> str:
-    """A :class:`ncsim.gap.Diagnosis` as text."""
+    """A :class:`ncsim.gap.diagnose.Diagnosis` as text."""
     g = d.gap_before
     al = d.alignment
     lines = [f"gap diagnosis: {d.program or '<path>'} against {d.source}, base model '{d.base}'",
@@ -121,7 +121,7 @@ _SUMMARY_UNITS = {"steady_feed": "mm/s", "max_feed_below": "mm/s", "normal_accel
 
 
 def format_summary(d) -> str:
-    """A :class:`ncsim.gap_summary.SummaryDiagnosis` as text."""
+    """A :class:`ncsim.gap.published.SummaryDiagnosis` as text."""
     from ncsim.gap.diagnose import shrink_percent
     g = d.gap_before
     lines = [f"gap diagnosis against published values: {d.source}, base model '{d.base}'",
@@ -166,7 +166,7 @@ def format_summary(d) -> str:
 
 
 def format_servo(d) -> str:
-    """A :class:`ncsim.gap_servo.ServoDiagnosis` as text."""
+    """A :class:`ncsim.gap.servo_part.ServoDiagnosis` as text."""
     signal = {"velocity": "velocities", "position": "positions"}.get(d.signal, d.signal)
     lines = [f"servo part (commanded against actual {signal}): {d.source}",
              f"  command as actual: gap {d.gap_before.gap:.3g}, rms {d.gap_before.rms:.4g} "

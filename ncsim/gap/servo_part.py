@@ -1,9 +1,9 @@
-"""The servo part of the gap: commanded against actual (issue 5, item 7).
+"""The servo part of the gap: commanded against actual.
 
 When a measured trace holds both the commanded (set-point) and the actual positions, the gap
 between ncsim and the actual motion splits in two:
 
-* the **planner part** -- ncsim against the commanded path: ``gap.diagnose`` run on
+* the **planner part** -- ncsim against the commanded path: ``diagnose.diagnose`` run on
   ``measured.command()`` with the planner effects as candidates;
 * the **servo part** -- commanded against actual: what the axes do to the set point, fitted
   here with the trace effects ``servo_lag`` (Kv with a feed-forward weight), ``servo_delay``
@@ -337,7 +337,7 @@ def diagnose_split(path, machine: MachineSpec, measured: MeasuredTrace, *, base:
                    planner_candidates: Sequence[str] | None = None,
                    servo_candidates: Sequence[str] | None = None, program: str = "",
                    **diagnose_options) -> SplitDiagnosis:
-    """Planner part (``gap.diagnose`` of the commanded positions with the planner effects as
+    """Planner part (``diagnose.diagnose`` of the commanded positions with the planner effects as
     candidates) and servo part (:func:`diagnose_servo`) of a trace that has both."""
     from ncsim.gap.effects import PLANNER_EFFECTS
     from ncsim.gap.diagnose import diagnose

@@ -100,7 +100,7 @@ def truthy(v: Value) -> bool:
 
 
 def evaluate(expr, scope: Scope, where: Where) -> Value:
-    """The value of ``expr`` (an ncsim.program expression node)."""
+    """The value of ``expr`` (an ncsim.nc.program expression node)."""
     if isinstance(expr, P.Num):
         return expr.value
     if isinstance(expr, P.Str):

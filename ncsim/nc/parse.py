@@ -1,11 +1,11 @@
-"""Parse 840D program text into a :class:`~ncsim.program.Program`.
+"""Parse 840D program text into a :class:`~ncsim.nc.program.Program`.
 
 The language is defined by ``grammars/sinumerik.lark`` (one block per line), run with Lark's
-LALR parser and an inline transformer that builds :mod:`ncsim.program` nodes. Before Lark,
+LALR parser and an inline transformer that builds :mod:`ncsim.nc.program` nodes. Before Lark,
 ASCII letters outside strings and ``;`` comments are upper-cased: the 840D does not
 distinguish case there.
 
-``parse_text(text, fast=True)`` first lets :mod:`ncsim.fastparse` read the plain lines
+``parse_text(text, fast=True)`` first lets :mod:`ncsim.nc.fastparse` read the plain lines
 (``N.. G0..G3 X Y Z I J K F``) as columns and gives only the other lines to Lark;
 ``fast=False`` gives every line to Lark. Both yield the same blocks (property-tested).
 
@@ -65,7 +65,7 @@ def _number(text: str, col: int) -> float:
 
 
 class _ToProgram(Transformer):
-    """Inline LALR transformer: grammar rules -> ncsim.program nodes (columns from tokens)."""
+    """Inline LALR transformer: grammar rules -> ncsim.nc.program nodes (columns from tokens)."""
 
     # ---- expressions ----
     def number(self, children):
@@ -321,7 +321,7 @@ def normalize_newlines(text: str) -> str:
 
 
 def parse_text(text: str, file: str = "<string>", *, fast: bool = True) -> P.Program:
-    """Parse a whole program. ``fast`` reads plain lines with :mod:`ncsim.fastparse`."""
+    """Parse a whole program. ``fast`` reads plain lines with :mod:`ncsim.nc.fastparse`."""
     text = normalize_newlines(text)
     if fast:
         from ncsim.nc.fastparse import scan_program

@@ -16,7 +16,7 @@ from numba import njit
 
 @njit(cache=True)
 def ramp_reach_scalar(v0, distance, jerk, accel):
-    """Scalar twin of :func:`ncsim.ramps.ramp_reach_mm_s` (same closed forms)."""
+    """Scalar twin of :func:`ncsim.plan.ramps.ramp_reach_mm_s` (same closed forms)."""
     if not math.isfinite(distance) or not math.isfinite(v0):
         return math.inf if distance > 0.0 else v0
     return v0 + reach_gain_scalar(v0, distance, jerk, accel)
@@ -72,7 +72,7 @@ def knot_feeds_array(caps, section_length, section_jerk, section_accel) -> np.nd
 
 @njit(cache=True)
 def ramp_time_scalar(dv, jerk, accel):
-    """Scalar twin of :func:`ncsim.ramps.ramp_time_s`."""
+    """Scalar twin of :func:`ncsim.plan.ramps.ramp_time_s`."""
     dv = abs(dv)
     if dv * jerk <= accel * accel:
         return 2.0 * math.sqrt(dv / jerk)
@@ -81,7 +81,7 @@ def ramp_time_scalar(dv, jerk, accel):
 
 @njit(cache=True)
 def ramp_distance_scalar(v0, v1, jerk, accel):
-    """Scalar twin of :func:`ncsim.ramps.ramp_distance_mm`."""
+    """Scalar twin of :func:`ncsim.plan.ramps.ramp_distance_mm`."""
     return 0.5 * (v0 + v1) * ramp_time_scalar(v1 - v0, jerk, accel)
 
 
@@ -111,7 +111,7 @@ def _peak_excess(va, vb, ga, gb, u2, length, jerk, accel):
 
 @njit(cache=True)
 def peak_feed_scalar(va, vb, length, jerk, accel, cap):
-    """Scalar twin of :func:`ncsim.ramps.peak_feed_mm_s` (generalised eq. 16).
+    """Scalar twin of :func:`ncsim.plan.ramps.peak_feed_mm_s` (generalised eq. 16).
 
     Solved for u = sqrt(V - lo), lo = max(va, vb): the equation is smooth in u (in V it has a
     square-root end) and each ramp's distance is computed from its own feed change
@@ -163,7 +163,7 @@ def peak_feeds(va, vb, length, jerk, accel, cap):
 
 @njit(cache=True)
 def _ramp_segments(v0, v1, jerk, accel):
-    """Durations t1, t2 and signed jerk of a ramp (see ncsim.ramps.ramp_pieces)."""
+    """Durations t1, t2 and signed jerk of a ramp (see ncsim.plan.ramps.ramp_pieces)."""
     dv = abs(v1 - v0)
     a_peak = min(accel, math.sqrt(dv * jerk))
     t1 = a_peak / jerk
@@ -304,7 +304,7 @@ def junction_states(piece_t, piece_s, piece_v, piece_a, piece_j, piece_phase, ph
 def approach_stop_distance_scalar(v_start, v_peak, jerk, accel):
     """Longest stopping distance met on a ramp from v_start up to v_peak: from the start of
     its last -J piece (acceleration a_p, duration a_p/J, covering V a_p/J - a_p^3/6J^2) the
-    stop finishes that piece and ramps from V to rest (see ncsim.plan._pin_unstoppable)."""
+    stop finishes that piece and ramps from V to rest (see ncsim.plan.lookahead._pin_unstoppable)."""
     dv = max(v_peak - v_start, 0.0)
     a_p = min(accel, math.sqrt(jerk * dv))
     t1 = a_p / jerk
@@ -331,7 +331,7 @@ def approach_feed_scalar(v_start, room, jerk, accel):
 
 @njit(cache=True)
 def creep_caps(p, keep, s_junction, start, end, v_start, room, jerk, accel, cap, tol):
-    """Look-ahead creep (see ``ncsim.plan._fit_lookahead``): for each section, successive
+    """Look-ahead creep (see ``ncsim.plan.lookahead._pin_unstoppable``): for each section, successive
     approach ramps towards its set point, each ending at a junction made a knot; within
     ``tol`` of the set point the feed holds. Lowers ``p`` and sets ``keep`` in place."""
     for i in range(start.shape[0]):
@@ -375,7 +375,7 @@ def reach_array(v0, distance, jerk, accel):
 
 @njit(cache=True)
 def removable_knots(peaks, caps, knot_caps, keep):
-    """Which inner knots to remove (ncsim.plan._refine_knots): walking along the path, a knot
+    """Which inner knots to remove (ncsim.plan.lookahead._refine_knots): walking along the path, a knot
     goes when the group of sections it joins keeps its highest peak below its lowest set
     point (section set points and the removed knots' caps), so merging never slows a section.
     ``knot_caps``/``keep`` are indexed by knot (0 and the last are never removed)."""

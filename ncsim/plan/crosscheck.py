@@ -1,4 +1,4 @@
-"""Cross-check of the planned feed law against ruckig's time-optimal motion (issue 3.4).
+"""Cross-check of the planned feed law against ruckig's time-optimal motion.
 
 For every block (path segment) the feed law of ncsim is one degree of freedom along the path:
 it leaves the block's start junction at ``(s, V, A_t) = (0, v_start, a_start)`` and reaches its

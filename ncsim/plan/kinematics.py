@@ -3,7 +3,7 @@
 Paper: "Circular tests for HSM machine tools: Bore machining application" (``shared/paper``),
 §3.1 (eq. 1-5), §3.2 (eq. 6), §5.2 (eq. 7-12), §5.3-5.4 (eq. 13-15). Units inside: mm, s, rad
 (velocities mm/s, accelerations mm/s^2, jerks mm/s^3); the paper's m/min, m/s^2, m/s^3 are
-converted by :mod:`ncsim.units` at the edges. Eq. 16 (the A/C ramps) is in :mod:`ncsim.ramps`.
+converted by :mod:`ncsim.units` at the edges. Eq. 16 (the A/C ramps) is in :mod:`ncsim.plan.ramps`.
 
 The angle alpha of eq. 7-9 and 15
 ---------------------------------

@@ -1,6 +1,6 @@
 """Pass/fail thresholds on a simulation summary (``ncsim check``, for CI on CAM output).
 
-Each threshold is checked against the JSON summary of ``report.summary`` and gives one
+Each threshold is checked against the JSON summary of ``summary.summary`` and gives one
 :class:`CheckResult`: what was measured, the threshold, pass or fail, and for a failure where
 the time goes (the blocks losing the most time, with ``file:line`` and the limit holding them).
 

@@ -1,4 +1,4 @@
-"""Withheld-effect truths for validating the gap diagnosis (issue 5, item 6).
+"""Withheld-effect truths for validating the gap diagnosis.
 
 A *case* draws one effect of the library and random parameters for it, builds a "measured"
 trace in which that effect is present, and names the base model the diagnosis must start
@@ -8,11 +8,11 @@ from: the one that lacks the effect. The truth is never the planner with a flag 
    model (servo and structure effects), sampled every ``COMMAND_DT_S`` (1 ms) and preceded by a
    rest of ``lead_s`` (the recorder is started before the cycle start);
 2. every axis follows it through the independent closed-loop time-stepping simulation of
-   ``ncsim.servo`` (RK4 at ``SERVO_DT_S`` = 50 us: P position loop with feed-forward, speed
+   ``ncsim.gap.truth.servo`` (RK4 at ``SERVO_DT_S`` = 50 us: P position loop with feed-forward, speed
    loop, mass-spring structure), with fixed, mild baseline dynamics (:data:`BASELINE_SERVO`)
    for planner effects and random loop or structure parameters for the servo and structure
    effects, and ``SETTLE_S`` more of rest at the end;
-3. ``ncsim.synth.degrade`` records it as an oscilloscope would: random period 1-12 ms,
+3. ``ncsim.gap.truth.synth.degrade`` records it as an oscilloscope would: random period 1-12 ms,
    white noise 0.3-2 um, encoder increment, clock offset, zero offset, dropouts.
 
 Parameter ranges (:data:`CASE_KINDS`) are where the effect shows on the test program

@@ -3,7 +3,7 @@
 A 840D "trace" (servo oscilloscope) records the actual positions every few IPO or position-
 control cycles, from an instant nobody aligned with the part program, in encoder increments,
 with a little electrical and vibration noise, and sometimes misses samples. :func:`degrade`
-turns a dense truth (e.g. :func:`ncsim.servo.simulate_servo` at 0.25 ms) into such a record,
+turns a dense truth (e.g. :func:`ncsim.gap.truth.servo.simulate_servo` at 0.25 ms) into such a record,
 seeded and reproducible:
 
 1. sampling instants ``t_k = t_first + phase + k * period`` over the truth span (``phase``
