@@ -152,17 +152,23 @@ class Problems:
             return {}
         return value
 
+    def _lookup(self, table: dict, prefix: str, key: str, required: bool):
+        """``(key path, value)`` of ``table[key]``, or None when absent (noted if required)."""
+        if key in table:
+            return key_path(prefix, key), table[key]
+        if required:
+            self.add(key_path(prefix, key), "missing key")
+        return None
+
     def number(self, table: dict, prefix: str, key: str, *, required: bool = False,
                check: Callable[[float], str | None] | None = finite,
                convert: Callable[[float], Any] = float):
         """A number (int or float), checked (``check`` returns a problem or None) in the file's
         unit, then converted (e.g. ``units.m_s2_to_mm_s2``)."""
-        full = key_path(prefix, key)
-        if key not in table:
-            if required:
-                self.add(full, "missing key")
+        found = self._lookup(table, prefix, key, required)
+        if found is None:
             return None
-        value = table[key]
+        full, value = found
         if not is_number(value):
             self.add(full, f"must be a number, got {type(value).__name__} {value!r}")
             return None
@@ -175,41 +181,35 @@ class Problems:
 
     def integer(self, table: dict, prefix: str, key: str, *, required: bool = False,
                 minimum: int = 1) -> int | None:
-        full = key_path(prefix, key)
-        if key not in table:
-            if required:
-                self.add(full, "missing key")
+        found = self._lookup(table, prefix, key, required)
+        if found is None:
             return None
-        value = table[key]
+        full, value = found
         if isinstance(value, bool) or not isinstance(value, int):
             self.add(full, f"must be an integer, got {type(value).__name__} {value!r}")
-            return None
-        if value < minimum:
+        elif value < minimum:
             self.add(full, f"must be an integer >= {minimum}")
-            return None
-        return value
+        else:
+            return value
+        return None
 
     def string(self, table: dict, prefix: str, key: str, *, required: bool = False,
                non_empty: bool = False) -> str | None:
-        full = key_path(prefix, key)
-        if key not in table:
-            if required:
-                self.add(full, "missing key")
+        found = self._lookup(table, prefix, key, required)
+        if found is None:
             return None
-        value = table[key]
-        if not isinstance(value, str) or (non_empty and not value):
-            self.add(full, "must be a non-empty string" if non_empty else "must be a string")
-            return None
-        return value
+        full, value = found
+        if isinstance(value, str) and (value or not non_empty):
+            return value
+        self.add(full, "must be a non-empty string" if non_empty else "must be a string")
+        return None
 
     def boolean(self, table: dict, prefix: str, key: str) -> bool | None:
-        if key not in table:
-            return None
-        value = table[key]
-        if not isinstance(value, bool):
-            self.add(key_path(prefix, key), "must be true or false")
-            return None
-        return value
+        found = self._lookup(table, prefix, key, False)
+        if found is None or isinstance(found[1], bool):
+            return None if found is None else found[1]
+        self.add(found[0], "must be true or false")
+        return None
 
     def xyz_mm(self, table: dict, prefix: str, key: str) -> tuple[float, float, float] | None:
         """A point ``[x_mm, y_mm, z_mm]`` of three finite numbers."""

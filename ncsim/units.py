@@ -66,18 +66,20 @@ def mm_s3_to_m_s3(value_mm_s3):
 
 
 def ms_to_s(value_ms):
-    return value_ms / MS_PER_S
+    return value_ms / 1000.0
 
 
 def s_to_ms(value_s):
-    return value_s * MS_PER_S
+    return value_s * 1000.0
 
 
 def um_to_mm(value_um):
+    """Noise, encoder increments and contour tolerances are given in um."""
     return value_um / UM_PER_MM
 
 
 def mm_to_um(value_mm):
+    """Contour errors and ISO 230-4 deviations are reported in um."""
     return value_mm * UM_PER_MM
 
 
