@@ -5,9 +5,10 @@ rendering on stderr and exits with :class:`ncsim.errors.ExitStatus` (never a tra
 Bad command-line usage (an unknown option, a value out of range) is one line as well, exit 2.
 
 Commands: ``run`` (cycle time and where the feed is limited), ``plot``, ``check`` (CI
-thresholds), ``machines``, ``explain`` (a machine's derived limits), ``parse`` and ``batch``.
-Heavy modules (the planner, matplotlib) are imported inside the commands that need them, so
-that ``ncsim run`` starts quickly and never imports matplotlib.
+thresholds), ``machines``, ``explain`` (a machine's derived limits), ``parse``, and in their
+own modules ``batch`` (``cli.batch``) and ``gap`` (``cli.gap``). Heavy modules (the parser, the
+planner, matplotlib, the gap diagnosis) are imported inside the commands that need them, so
+that ``ncsim --help`` is quick and ``ncsim run`` never imports matplotlib.
 """
 from __future__ import annotations
 

@@ -1,1 +1,7 @@
-"""NC front end: program text -> Program (parse) -> Path (interpret)."""
+"""NC front end: program text -> Program (parse) -> Path (interpret).
+
+``parse`` (the Lark grammar) and ``fastparse`` (compiled scanner for plain blocks) build the
+``program`` nodes; ``expr`` evaluates expressions, ``modal`` holds the G groups and the modal
+state, ``frames`` the 840D frame chain; ``interpret`` executes the blocks in the 840D order.
+Imports nothing of ``plan``, ``report``, ``gap`` or ``cli`` (``tests/test_layering.py``).
+"""

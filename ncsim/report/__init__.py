@@ -1,1 +1,6 @@
-"""Reports: summaries, pass/fail checks, machine explanations, plots, CSV traces."""
+"""Reports: summaries, pass/fail checks, machine explanations, plots, CSV traces.
+
+``summary`` (the JSON and text summary), ``check`` (CI thresholds), ``explain`` (a machine's
+limits against the radius), ``plot`` (matplotlib, imported lazily), ``csvio`` and its compiled
+row writer ``csvformat``.
+"""
