@@ -41,3 +41,16 @@ def test_import_and_help_stay_lean(code):
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"
+
+
+def test_simulate_reports_its_stages_and_reads_a_setup_file(repo_root, tmp_path, mikron):
+    program = repo_root / "programs" / "circle_r30_f6000.mpf"
+    stages = []
+    sim = ncsim.simulate(program, mikron, progress=stages.append)
+    assert stages == ["interpret", "plan"] and sim.cycle_time_s > 0
+    # a setup file's work offset moves the programmed point: X10 Y0 under G54 = (10, 20, 30)
+    # ends at machine (20, 20); Z is not programmed, so the machine's Z stays at 0
+    setup = tmp_path / "setup.toml"
+    setup.write_text("[work_offsets]\nG54 = [10, 20, 30]\n")
+    sim = ncsim.simulate("offset.mpf", mikron, text="G54 G1 X10 Y0 F1000\nM30\n", setup_offsets=setup)
+    assert sim.path.end_mm[-1].tolist() == [20.0, 20.0, 0.0]
