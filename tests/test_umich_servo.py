@@ -4,7 +4,6 @@ a few milliseconds and the same in both runs, and it agrees with the independent
 estimate of ncsim.gap.lag.estimate_lag (a different method on the same data)."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import pytest
 

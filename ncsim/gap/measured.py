@@ -26,7 +26,6 @@ from __future__ import annotations
 import csv
 import math
 from dataclasses import dataclass, field, fields, replace
-from pathlib import Path as FsPath
 from typing import Any, Mapping
 
 import numpy as np
@@ -698,7 +697,6 @@ def _summary_entry(c: Problems, kind: str, path: str, item: Mapping[str, Any],
                    seen: dict[str, str]) -> SummaryEntry | None:
     """One ``[[kind]]`` table (its problems go to ``c``; None if it has any)."""
     n_problems = len(c.items)
-    allowed = _ENTRY_QUANTITIES[kind]
     values: dict[str, float] = {}
     flags: dict[str, bool] = {}
     ints: dict[str, int] = {}
