@@ -1,14 +1,15 @@
 """The servo part (commanded against actual) on real data: two University of Michigan SMART
-mill runs (``shared/data/real/umich-smart-cnc-mill-tool-wear``, CC0, 10 Hz). The expectations are physical: the recovered lag is
-a few milliseconds and the same in both runs, and it agrees with the independent ramp-delay
-estimate of ncsim.gap.lag.estimate_lag (a different method on the same data)."""
+mill runs (``shared/data/real/umich-smart-cnc-mill-tool-wear``, CC0, 10 Hz). The expectations
+are physical: the recovered lag is a few milliseconds and the same in both runs, and it agrees
+with the independent ramp-delay estimate of ncsim.gap.lag.estimate_lag (a different method on
+the same data)."""
 from __future__ import annotations
-
 
 import pytest
 
-from ncsim.gap.servo_part import diagnose_servo
 from ncsim.gap.measured import load_umich_csv
+from ncsim.gap.servo_part import diagnose_servo
+
 
 @pytest.fixture(scope="module")
 def runs(shared):
