@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from ncsim.nc import interpret
+from ncsim.nc import columns, interpret
 from ncsim.errors import NcError
 from ncsim.nc.fastparse import scan_plain
 from ncsim.nc.interpret import interpret_text
@@ -262,14 +262,14 @@ def test_vectorised_runs_are_taken_and_agree():
         lines += [f"N{k * 10} X{k + 1}.5 Y{k % 3}", f"G3 X{k + 1}.5 Y{k % 3 + 2} I0 J1", "G1"]
     text = "\n".join(lines) + "\nM30\n"
     calls = []
-    original = interpret._Interpreter._vector_run
+    original = columns.ColumnPath.run
 
     def spy(self, fr, run):
         ok = original(self, fr, run)
         calls.append((len(run), ok))
         return ok
 
-    with mock.patch.object(interpret._Interpreter, "_vector_run", spy):
+    with mock.patch.object(columns.ColumnPath, "run", spy):
         fast = _outcome(text, True)
     assert calls and all(ok for _, ok in calls) and sum(n for n, _ in calls) >= 120
     assert_same_outcome(fast, _outcome(text, False))

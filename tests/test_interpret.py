@@ -252,9 +252,9 @@ def test_not_simulated_constructs_warn_with_their_line():
 
 
 def test_arc_kernel_agrees_with_geometry():
-    """interpret.arc_columns vs geometry.sweep_angle_rad / in_plane_radius_mm / point_at."""
+    """moves.arc_columns vs geometry.sweep_angle_rad / in_plane_radius_mm / point_at."""
     from ncsim.geometry import in_plane_radius_mm, point_at, sweep_angle_rad
-    from ncsim.nc.interpret import arc_columns
+    from ncsim.nc.moves import arc_columns
     rng = np.random.default_rng(3)
     n = 200
     normal = rng.normal(size=(n, 3))

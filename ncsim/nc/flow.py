@@ -1,0 +1,243 @@
+"""Program flow: units, labels, jumps and control structures of an 840D program.
+
+840D semantics (Programming Guide Fundamentals, "Arithmetic parameters and program jumps";
+Programming Guide Advanced, "Flexible NC programming", control structures):
+
+* a file is a main part followed by PROCs, each PROC running to the next PROC (:func:`split_units`);
+* labels are unique per unit; IF/ELSE/ENDIF, WHILE/ENDWHILE, FOR/ENDFOR, REPEAT/UNTIL and
+  LOOP/ENDLOOP pair up before execution (:func:`compile_unit`), so an unpaired statement is an
+  error at its line even if it is never reached;
+* GOTOF searches forward from the next block, GOTOB backward from this block, GOTO forward then
+  backward, GOTOC the same but an unknown destination is no error; a destination is a label or a
+  block number N;
+* FOR var = start TO end counts up by 1 and runs no time when start > end.
+
+A new control-flow statement is a node in :mod:`ncsim.nc.program`, a rule in the grammar, its
+pairing in :data:`OPENERS`/:func:`structure_word` when it opens or closes a structure, and a
+handler in :meth:`Flow.execute`'s table.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ncsim.nc import program as P
+from ncsim.nc.expr import Where, truthy
+
+
+@dataclass(slots=True)
+class Unit:
+    """A main program or a PROC: its items, labels and paired control statements."""
+
+    name: str
+    file: str
+    items: list
+    params: tuple = ()
+    labels: dict = field(default_factory=dict)
+    pairs: dict = field(default_factory=dict)      # opener <-> closer (and ELSE -> ENDIF)
+    else_of: dict = field(default_factory=dict)    # IF -> ELSE
+
+
+OPENERS = {"IF": "ENDIF", "WHILE": "ENDWHILE", "FOR": "ENDFOR", "REPEAT": "UNTIL", "LOOP": "ENDLOOP"}
+CLOSERS = {v: k for k, v in OPENERS.items()}
+
+
+def structure_word(block) -> str | None:
+    """The control-structure word a block opens, continues or closes (IF, ELSE, ENDIF, ...)."""
+    s = block.statement if isinstance(block, P.Block) else None
+    if isinstance(s, P.If):
+        return "IF"
+    if isinstance(s, P.While):
+        return "WHILE"
+    if isinstance(s, P.For):
+        return "FOR"
+    if isinstance(s, P.Until):
+        return "UNTIL"
+    if isinstance(s, P.Keyword):
+        return s.name
+    return None
+
+
+def compile_unit(unit: Unit) -> Unit:
+    """Pair IF/ELSE/ENDIF, WHILE, FOR, REPEAT/UNTIL, LOOP and collect labels (errors located)."""
+    stack: list[tuple[str, int]] = []
+    for idx, item in enumerate(unit.items):
+        if not isinstance(item, P.Block):
+            continue
+        if item.label is not None:
+            if item.label in unit.labels:
+                first = unit.items[unit.labels[item.label]].line
+                raise Where(unit.file, item.line).error(
+                    f"label {item.label} defined twice (first at line {first})", 1)
+            unit.labels[item.label] = idx
+        word = structure_word(item)
+        if word is None:
+            continue
+        where = Where(unit.file, item.line)
+        col = item.statement.col
+        if word in OPENERS:
+            stack.append((word, idx))
+        elif word == "ELSE":
+            if not stack or stack[-1][0] != "IF" or stack[-1][1] in unit.else_of:
+                raise where.error("ELSE without IF", col)
+            unit.else_of[stack[-1][1]] = idx
+        else:
+            opener = CLOSERS[word]
+            if not stack or stack[-1][0] != opener:
+                what = (f"{word} closes {stack[-1][0]} of line {unit.items[stack[-1][1]].line}"
+                        if stack else f"{word} without {opener}")
+                raise where.error(what, col)
+            _, start = stack.pop()
+            unit.pairs[start] = idx
+            unit.pairs[idx] = start
+            if start in unit.else_of:
+                unit.pairs[unit.else_of[start]] = idx
+    if stack:
+        word, idx = stack[-1]
+        block = unit.items[idx]
+        raise Where(unit.file, block.line).error(f"{word} without {OPENERS[word]}",
+                                                 block.statement.col)
+    return unit
+
+
+def split_units(program: P.Program, main_name: str) -> list[Unit]:
+    """The program's units: the main part, then one per PROC (a PROC runs to the next PROC)."""
+    units: list[Unit] = []
+    current = Unit(main_name, program.file, [])
+    for item in program.items:
+        if isinstance(item, P.Block) and isinstance(item.statement, P.Proc):
+            if current.items or units:
+                units.append(current)
+            current = Unit(item.statement.name, program.file, [item], item.statement.params)
+        else:
+            current.items.append(item)
+    units.append(current)
+    return [compile_unit(u) for u in units]
+
+
+def is_proc(unit: Unit) -> bool:
+    """Whether the unit starts with its PROC statement (execution then starts after it)."""
+    return bool(unit.items) and isinstance(unit.items[0], P.Block) and isinstance(
+        unit.items[0].statement, P.Proc)
+
+
+def find_destination(unit: Unit, goto: P.Goto, here: int):
+    """(item index, row) of a jump destination, or None. GOTOF searches forward from the next
+    block, GOTOB backward from this block, GOTO and GOTOC forward then backward."""
+    target = goto.target
+    forward = goto.kind != "GOTOB"
+    backward = goto.kind != "GOTOF"
+    if target.label is not None:
+        idx = unit.labels.get(target.label)
+        if idx is None or (idx > here and not forward) or (idx <= here and not backward):
+            return None
+        return idx, 0
+    items = unit.items
+    if forward:
+        found = _find_number(items, target.number, range(here + 1, len(items)), last=False)
+        if found is not None:
+            return found
+    if backward:
+        return _find_number(items, target.number, range(here, -1, -1), last=True)
+    return None
+
+
+def _find_number(items: list, number: int, order, last: bool):
+    for idx in order:
+        item = items[idx]
+        if isinstance(item, P.PlainRun):
+            hits = np.flatnonzero(item.numbers == number)
+            if len(hits):
+                return idx, int(hits[-1] if last else hits[0])
+        elif item.number == number:
+            return idx, 0
+    return None
+
+
+_DIRECTION = {"GOTOF": "forward", "GOTOB": "backward", "GOTO": "forward and backward"}
+
+
+class Flow:
+    """Executes the control statements (a block holding one statement instead of words)."""
+
+    def __init__(self, state) -> None:
+        self.state = state
+        self.vars = state.vars
+        self._handlers = {
+            P.Goto: self._goto, P.IfGoto: self._if_goto, P.If: self._if, P.While: self._while,
+            P.For: self._for, P.Until: self._until, P.Keyword: self._keyword, P.Def: self._define,
+            P.Proc: self._proc, P.Extern: self._extern,
+        }
+
+    def execute(self, ctx, s) -> None:
+        """Run statement ``s`` of the block at ``ctx`` (the frame's pc is already past it)."""
+        self._handlers[type(s)](ctx, s, ctx.frame.pc - 1)
+
+    def _goto(self, ctx, s: P.Goto, here: int) -> None:
+        self._jump(ctx, s, here)
+
+    def _if_goto(self, ctx, s: P.IfGoto, here: int) -> None:
+        if truthy(ctx.eval(s.cond)):
+            self._jump(ctx, s.goto, here)
+
+    def _if(self, ctx, s: P.If, here: int) -> None:
+        if not truthy(ctx.eval(s.cond)):
+            unit = ctx.frame.unit
+            ctx.frame.pc = unit.else_of.get(here, unit.pairs[here]) + 1
+
+    def _while(self, ctx, s: P.While, here: int) -> None:
+        if not truthy(ctx.eval(s.cond)):
+            ctx.frame.pc = ctx.frame.unit.pairs[here] + 1
+
+    def _until(self, ctx, s: P.Until, here: int) -> None:
+        if not truthy(ctx.eval(s.cond)):
+            ctx.frame.pc = ctx.frame.unit.pairs[here] + 1
+
+    def _for(self, ctx, s: P.For, here: int) -> None:
+        fr = ctx.frame
+        start = ctx.number(s.start, "FOR")
+        end = ctx.number(s.end, "FOR")
+        self.vars.assign(ctx, s.var, start)
+        fr.for_end[here] = end
+        if start > end:
+            fr.pc = fr.unit.pairs[here] + 1
+
+    def _keyword(self, ctx, s: P.Keyword, here: int) -> None:
+        fr = ctx.frame
+        unit = fr.unit
+        if s.name == "ELSE":
+            fr.pc = unit.pairs[here] + 1          # end of the true branch: skip the else branch
+        elif s.name == "ENDWHILE":
+            fr.pc = unit.pairs[here]               # back to WHILE (re-evaluated)
+        elif s.name == "ENDLOOP":
+            fr.pc = unit.pairs[here] + 1
+        elif s.name == "ENDFOR":
+            start = unit.pairs[here]
+            if start not in fr.for_end:
+                raise ctx.error("ENDFOR reached without its FOR (a jump into the loop)", s.col)
+            var = unit.items[start].statement.var
+            value = self.vars.read_target(ctx, var) + 1.0
+            self.vars.assign(ctx, var, value)
+            if value <= fr.for_end[start]:
+                fr.pc = start + 1
+        # ENDIF, REPEAT, LOOP: nothing to do
+
+    def _define(self, ctx, s: P.Def, here: int) -> None:
+        self.vars.define(ctx, s)
+
+    def _proc(self, ctx, s: P.Proc, here: int) -> None:
+        raise ctx.error(f"PROC {s.name} inside a program: a PROC must be the first block of its "
+                        f"unit", s.col)
+
+    def _extern(self, ctx, s: P.Extern, here: int) -> None:
+        """EXTERN: a declaration only."""
+
+    def _jump(self, ctx, goto: P.Goto, here: int) -> None:
+        dest = find_destination(ctx.frame.unit, goto, here)
+        if dest is None:
+            if goto.kind == "GOTOC":
+                return
+            raise ctx.error(f"jump destination {goto.target} not found ({goto.kind} searches "
+                            f"{_DIRECTION[goto.kind]})", goto.target.col)
+        ctx.frame.pc, ctx.frame.row = dest

@@ -1,0 +1,224 @@
+"""Steps 2 and 3 of a block: modal G functions, frame instructions, F S T D M H and settings.
+
+840D semantics (Programming Guide Fundamentals: "Fundamental principles of NC programming",
+"Path action", "Frames", "Feedrate control and spindle motion", "Miscellaneous functions"):
+
+* G54..G57, G505.. select a settable work offset (machine file ``[work_offsets]`` or the setup
+  file; a missing one is 0 with a warning), G500 deselects it;
+* TRANS ROT SCALE MIRROR replace the programmable frame, ATRANS AROT ASCALE AMIRROR add to it;
+  the block's X Y Z are their arguments, so a frame block makes no motion (:mod:`ncsim.nc.frames`);
+* F is mm/min (inch/min under G700), positive; S the spindle speed; D a tool offset (its
+  compensation is not simulated, a warning when it changes); every M and H output stops the path
+  (M0 M1 M6 with a warning, their time is not simulated);
+* ADIS/ADISPOS are the G641 rounding distances; SOFT/BRISK/DRIVE change the acceleration mode
+  (and stop the path when they change); FFWON/FFWOF the feed-forward; STOPRE stops;
+* COMP*, DYN*, TRAORI and the like are recorded with a warning: they are not simulated.
+
+A new command word (a name without ``=``) is handled in :meth:`Settings.commands` and added to
+:data:`HANDLED_COMMANDS`, or it would be taken for a subprogram call.
+"""
+from __future__ import annotations
+
+from ncsim.nc.expr import format_value
+from ncsim.nc.frames import Frame, mirroring, rotation_in_plane, rotation_rpy, scaling, translation
+from ncsim.nc.modal import (ACCEL_COMMANDS, COMMANDS_NOT_SIMULATED, COMPRESSOR_COMMANDS,
+                            DYNAMIC_COMMANDS, M_OPTIONAL_STOP, M_SPINDLE_CCW, M_SPINDLE_CW,
+                            M_SPINDLE_STOP, M_STOP, M_TOOL_CHANGE, UNSUPPORTED_MOTION)
+from ncsim.nc.words import AXES
+from ncsim.units import mm_min_to_mm_s
+
+_ZERO3 = (0.0, 0.0, 0.0)
+_FRAME_COMMANDS = ("TRANS", "ATRANS", "ROT", "AROT", "SCALE", "ASCALE", "MIRROR", "AMIRROR")
+_TRANSFORMATIONS = ("TRAORI", "TRANSMIT", "TRACYL", "TRAANG")
+
+# Command words a block handles itself; any other name is a subprogram call.
+HANDLED_COMMANDS = frozenset(
+    set(ACCEL_COMMANDS) | set(COMPRESSOR_COMMANDS) | set(DYNAMIC_COMMANDS) | set(_TRANSFORMATIONS)
+    | set(_FRAME_COMMANDS)
+    | set(COMMANDS_NOT_SIMULATED) | set(UNSUPPORTED_MOTION)
+    | {"FFWON", "FFWOF", "STOPRE", "TRAFOOF", "FNORM", "CFC", "MCALL", "SUPA", "RET", "GOTOS"})
+
+
+class Settings:
+    """Applies a block's modal words to the modal state (nothing here moves the tool)."""
+
+    def __init__(self, state) -> None:
+        self.state = state
+        self.st = state.st
+
+    # ---- modal G functions -------------------------------------------------------------------
+
+    def modal_gcodes(self, ctx) -> None:
+        st = self.st
+        g = ctx.gcodes
+        if "units" in g:
+            st.units = g["units"][0]
+        if "plane" in g:
+            st.plane = g["plane"][0]
+        if "distance" in g:
+            st.incremental = g["distance"][0] == 91
+        if "cp_mode" in g:
+            st.cp_mode = g["cp_mode"][0]
+        if "stop_window" in g:
+            st.stop_window = g["stop_window"][0]
+        if "settable" in g:
+            self._settable_frame(ctx, g["settable"])
+        if "radius_comp" in g:
+            code, col = g["radius_comp"]
+            if code != 40 and st.radius_comp != code:
+                ctx.warn("cutter compensation", f"G{code} cutter radius compensation is not "
+                         f"simulated (the path is the programmed contour)", col)
+            st.radius_comp = code
+        if "limits" in g:
+            code, col = g["limits"]
+            ctx.warn("limits", f"G{code} limits are not simulated", col)
+
+    def _settable_frame(self, ctx, word) -> None:
+        code, col = word
+        st = self.st
+        if code == 500:
+            st.settable_mm = _ZERO3
+        else:
+            name = f"G{code}"
+            offset = self.state.offsets.get(name)
+            machine = self.state.machine
+            if offset is None and machine is not None:
+                found = machine.work_offset_mm(name)
+                offset = None if found is None else tuple(float(v) for v in found)
+            if offset is None:
+                ctx.warn("work offset", f"{name} work offset not given (machine file "
+                         f"[work_offsets] or setup file): taken as 0", col)
+                offset = _ZERO3
+            st.settable_mm = tuple(offset)
+        st.set_frames()
+
+    # ---- frames ------------------------------------------------------------------------------
+
+    def frame_instruction(self, ctx) -> str | None:
+        """TRANS, AROT, ... of the block (the frame becomes active at once), else None."""
+        found = [(n, c) for n, c in ctx.commands if n in _FRAME_COMMANDS]
+        if not found:
+            return None
+        name, col = found[0]
+        if len(found) > 1:
+            raise ctx.error(f"{found[1][0]} after {name}: one frame instruction per block",
+                            found[1][1])
+        if "motion" in ctx.gcodes or ctx.centre or ctx.inter:
+            raise ctx.error(f"{name} must be programmed in a block without motion", col)
+        for axis, (value, mode, acol) in ctx.axes.items():
+            if mode is not None:
+                raise ctx.error(f"{mode}() is not allowed in a {name} block", acol)
+        values = {a: v for a, (v, _, _) in ctx.axes.items()}
+        st = self.st
+        g = self._frame_of(ctx, name, values, col)
+        st.prog_frame = st.prog_frame.then(g) if name.startswith("A") else g
+        st.set_frames()
+        return name
+
+    def _frame_of(self, ctx, name: str, values: dict, col: int) -> Frame:
+        base = name[1:] if name.startswith("A") else name
+        if base == "TRANS":
+            s = self.st.length_scale
+            return translation([values.get(a, 0.0) * s for a in AXES])
+        if base == "ROT":
+            if "RPL" in ctx.values:
+                if values:
+                    raise ctx.error(f"{name}: RPL= together with axis angles", col)
+                return rotation_in_plane(self.st.plane, ctx.values["RPL"][0])
+            return rotation_rpy(values)
+        if base == "SCALE":
+            for a, v in values.items():
+                if v == 0.0:
+                    raise ctx.error(f"{name}: scale factor of {a} is 0", col)
+            return scaling(values)
+        return mirroring(set(values))
+
+    # ---- F S T D M H -------------------------------------------------------------------------
+
+    def feed_spindle_tool(self, ctx) -> None:
+        st = self.st
+        values = ctx.values
+        dwell = "dwell" in ctx.gcodes
+        if "F" in values and not dwell:
+            value, col = values["F"]
+            if not value > 0.0:
+                raise ctx.error(f"feed F must be positive, got {format_value(value)}", col)
+            st.feed_mm_s = mm_min_to_mm_s(value * st.feed_scale)
+        if "S" in values and not dwell:
+            value, col = values["S"]
+            if value < 0.0:
+                raise ctx.error("spindle speed S must not be negative", col)
+            st.spindle_rpm = value
+        if "T" in values:
+            ctx.record("T", (values["T"][0],))
+        if "D" in values:
+            value, col = values["D"]
+            d = ctx.whole_number(value, "D", col)
+            if d != 0 and d != st.d_number:
+                ctx.warn("tool offset", f"D{d} tool length and radius compensation is not "
+                         f"simulated (the path is the programmed X/Y/Z)", col)
+            st.d_number = d
+        for code, col in ctx.m:
+            self._m_function(ctx, code, col)
+        if ctx.h:
+            st.pending_stop = True
+        for key, attr in (("ADIS", "adis_mm"), ("ADISPOS", "adispos_mm")):
+            if key in values:
+                value, col = values[key]
+                if value < 0.0:
+                    raise ctx.error(f"{key} must not be negative", col)
+                setattr(st, attr, value * st.length_scale)
+
+    def _m_function(self, ctx, code: int, col: int) -> None:
+        st = self.st
+        st.pending_stop = True   # an auxiliary function output stops the path
+        if code in (M_SPINDLE_CW, M_SPINDLE_CCW):
+            st.spindle_on = True
+        elif code == M_SPINDLE_STOP:
+            st.spindle_on = False
+        elif code == M_STOP:
+            ctx.warn("M0", "M0 programmed stop: the wait for the operator is not simulated", col)
+        elif code == M_OPTIONAL_STOP:
+            ctx.warn("M1", "M1 optional stop is not active in ncsim (ignored)", col)
+        elif code == M_TOOL_CHANGE:
+            ctx.warn("M6", "M6 tool change: its time is not simulated", col)
+            ctx.record("M6", ())
+
+    # ---- command words -----------------------------------------------------------------------
+
+    def commands(self, ctx) -> None:
+        """SOFT/BRISK/DRIVE, FFWON/FFWOF, STOPRE, COMP*, DYN*, transformations, MCALL, ..."""
+        st = self.st
+        for name, col in ctx.commands:
+            if name in ACCEL_COMMANDS:
+                if ACCEL_COMMANDS[name] != st.accel_mode:
+                    st.pending_stop = True
+                st.accel_mode = ACCEL_COMMANDS[name]
+            elif name in ("FFWON", "FFWOF"):
+                st.ffw = name == "FFWON"
+            elif name == "STOPRE":
+                st.pending_stop = True
+            elif name in COMPRESSOR_COMMANDS or name in DYNAMIC_COMMANDS:
+                ctx.record(name, ())
+                if name not in ("COMPOF", "DYNNORM"):
+                    what = "compressor" if name.startswith("COMP") else "dynamic response mode"
+                    ctx.warn(name, f"{name}: the {what} is recorded but not simulated", col)
+            elif name in _TRANSFORMATIONS:
+                ctx.record(name, ())
+                ctx.warn("transformation", f"{name} kinematic transformation is not simulated "
+                         f"(X/Y/Z are used as programmed)", col)
+            elif name in COMMANDS_NOT_SIMULATED:
+                ctx.warn(name, f"{name} ({COMMANDS_NOT_SIMULATED[name]}) is not simulated", col)
+            elif name in UNSUPPORTED_MOTION:
+                raise ctx.unsupported(f"{name} ({UNSUPPORTED_MOTION[name]}) is not simulated", col)
+            elif name == "MCALL":
+                self._modal_call(ctx, col)
+
+    def _modal_call(self, ctx, col: int) -> None:
+        if not ctx.calls:
+            ctx.record("MCALL", ())
+            return
+        name, args, _ = ctx.calls.pop(0)
+        ctx.record(f"MCALL {name}", args)
+        ctx.warn("MCALL", f"MCALL {name}: the modal call is not executed after the following "
+                 f"positioning blocks (only the positioning moves are simulated)", col)

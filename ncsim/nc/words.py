@@ -1,0 +1,149 @@
+"""Step 1 of a block: evaluate its words left to right into a :class:`~ncsim.nc.context.WordContext`.
+
+840D semantics (Programming Guide Fundamentals, "Fundamental principles of NC programming",
+"Positional data"):
+
+* words are evaluated in their order, and an assignment takes effect at once, so ``R1=5 X=R1``
+  moves to 5;
+* X Y Z, I J K and I1 J1 K1 may be ``AC(..)``/``IC(..)`` (absolute/incremental for this word);
+  each address once per block, each value |v| < 1e9;
+* two G functions of one group in a block are an error (CIP and CT are motion commands);
+* A B C and U V W are read but not simulated (a warning); AP/RP polar coordinates are an error;
+* M, H, M<n>=, S<n>= are auxiliary functions (S<n>= is the speed of spindle n);
+* a control keyword (IF, GOTOF, ...) must begin its own block; an unknown address is an error.
+
+A new NC word is read in :meth:`Words.word` (into one of the context's tables: ``gcodes``,
+``axes``, ``values``, ``commands`` ...) and takes effect in :mod:`ncsim.nc.settings` (a modal
+setting) or :mod:`ncsim.nc.moves` (a motion); a new G function is an entry of
+:data:`ncsim.nc.modal.G_CODES`.
+"""
+from __future__ import annotations
+
+from ncsim.nc import program as P
+from ncsim.nc.modal import CIP, CT, G_CODES, G_UNSUPPORTED, MOTION_NAMES
+
+AXES = ("X", "Y", "Z")
+CENTRE = ("I", "J", "K")
+INTER = ("I1", "J1", "K1")
+_ROTARY = ("A", "B", "C")
+_EXTRA_AXES = ("U", "V", "W")
+_VALUE_WORDS = ("CR", "AR", "TURN", "F", "S", "T", "D", "ADIS", "ADISPOS", "RPL", "L", "P")
+_KEYWORDS = ("IF", "ELSE", "ENDIF", "WHILE", "ENDWHILE", "FOR", "TO", "ENDFOR", "REPEAT", "UNTIL",
+             "LOOP", "ENDLOOP", "GOTO", "GOTOF", "GOTOB", "GOTOC", "DEF", "PROC", "EXTERN")
+_AXIS_MODES = ("AC", "IC")
+_ROTARY_MODES = ("AC", "IC", "DC", "ACP", "ACN")
+
+
+def _g_name(group: str, code: int) -> str:
+    """G1, or CIP/CT for the motion codes that are commands."""
+    return MOTION_NAMES[code] if group == "motion" else f"G{code}"
+
+
+def _axis_mode(expr, rotary: bool = False):
+    """(mode, expression) of an axis value: ``AC(e)``/``IC(e)`` (and DC/ACP/ACN for rotary)."""
+    modes = _ROTARY_MODES if rotary else _AXIS_MODES
+    if isinstance(expr, P.Func) and expr.name in modes and len(expr.args) == 1 and expr.args[0] is not None:
+        return expr.name, expr.args[0]
+    return None, expr
+
+
+class Words:
+    """Evaluates a block's items into its context (assignments are done at once)."""
+
+    def __init__(self, state) -> None:
+        self.state = state
+        self.vars = state.vars
+
+    def collect(self, ctx, block: P.Block) -> None:
+        if block.items:
+            ctx.first_col = block.items[0].col
+        for item in block.items:
+            if isinstance(item, P.Assign):
+                self._assign_item(ctx, item)
+            elif isinstance(item, P.Word):
+                self.word(ctx, item)
+            elif isinstance(item, P.Command):
+                self._command_word(ctx, item)
+            else:
+                args = tuple(None if a is None else ctx.eval(a) for a in item.args)
+                ctx.calls.append((item.name, args, item.col))
+
+    def _assign_item(self, ctx, item: P.Assign) -> None:
+        if isinstance(item.target, P.SysVar):
+            value = ctx.eval(item.value)
+            ctx.warn("system variable", f"assignment to system variable {item.target.name} is "
+                     f"not simulated", item.col)
+            ctx.record(item.target.name, (value,))
+            return
+        self.vars.assign(ctx, item.target, ctx.eval(item.value))
+
+    def word(self, ctx, word: P.Word) -> None:
+        a = word.address
+        if a in AXES or a in CENTRE or a in INTER:
+            mode, expr = _axis_mode(word.value)
+            value = ctx.in_range(ctx.number(expr, a), a, word.col)
+            table = ctx.axes if a in AXES else ctx.centre if a in CENTRE else ctx.inter
+            if a in table:
+                raise ctx.error(f"{a} programmed twice in one block", word.col)
+            table[a] = (value, mode, word.col)
+            return
+        if a in _ROTARY or a in _EXTRA_AXES:
+            ctx.eval(_axis_mode(word.value, rotary=True)[1])
+            kind = "rotary axis" if a in _ROTARY else "additional axis"
+            ctx.warn(kind, f"{kind} {a} is not simulated (the path uses X, Y, Z as programmed)",
+                     word.col)
+            return
+        if a == "G":
+            code = ctx.whole_number(ctx.number(word.value, "G"), "G", word.col)
+            self._gcode(ctx, code, word.col)
+            return
+        if a in ("M", "H") or (len(a) > 1 and a[0] in "MS" and a[1:].isdigit()):
+            self._aux_word(ctx, word)
+            return
+        if a == "N":
+            raise ctx.error("a block number N must begin the block", word.col)
+        if a in ("AP", "RP"):
+            raise ctx.unsupported(f"polar coordinates ({a}=) are not simulated", word.col)
+        if a in _VALUE_WORDS:
+            value = ctx.eval(word.value)
+            if isinstance(value, str) and a != "T":
+                raise ctx.error(f"{a} needs a number, got the string {value!r}", word.col)
+            if not isinstance(value, str):
+                ctx.in_range(value, a, word.col)
+            if a in ctx.values:
+                raise ctx.error(f"{a} programmed twice in one block", word.col)
+            ctx.values[a] = (value, word.col)
+            return
+        raise ctx.error(f"unknown word {a}", word.col)
+
+    def _aux_word(self, ctx, word: P.Word) -> None:
+        a = word.address
+        value = ctx.number(word.value, a)
+        if a[0] == "S":   # S1=..: speed of spindle 1, taken as the spindle speed
+            ctx.values["S"] = (value, word.col)
+            return
+        code = ctx.whole_number(value, a[0], word.col)
+        (ctx.h if a == "H" else ctx.m).append((code, word.col))
+
+    def _gcode(self, ctx, code: int, col: int) -> None:
+        if code in G_UNSUPPORTED:
+            raise ctx.unsupported(f"{G_UNSUPPORTED[code]} is not simulated", col)
+        if code not in G_CODES:
+            raise ctx.error(f"unknown G function G{code}", col)
+        group, _ = G_CODES[code]
+        if group in ctx.gcodes:
+            other = _g_name(group, ctx.gcodes[group][0])
+            raise ctx.error(f"{other} and G{code} in one block (both in the {group} group)", col)
+        ctx.gcodes[group] = (code, col)
+
+    def _command_word(self, ctx, item: P.Command) -> None:
+        name = item.name
+        if name in ("CIP", "CT") and "motion" in ctx.gcodes:
+            other = _g_name("motion", ctx.gcodes["motion"][0])
+            raise ctx.error(f"{other} and {name} in one block (both in the motion group)", item.col)
+        if name in ("CIP", "CT"):
+            ctx.gcodes["motion"] = (CIP if name == "CIP" else CT, item.col)
+            return
+        if name in _KEYWORDS:
+            raise ctx.error(f"{name} must begin a block of its own", item.col)
+        ctx.commands.append((name, item.col))
