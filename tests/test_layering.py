@@ -31,10 +31,8 @@ FORBIDDEN = {
 #: imported by nothing in ncsim outside itself (tests and benchmarks may)
 FENCED = ("ncsim.gap.truth",)
 
-#: modules allowed over the size limits, each with the reason; the interpreter is being split
-#: into a per-block context and collaborators on the branch `split-interp` (the coordinator
-#: removes this entry when that branch is merged)
-SIZE_EXCEPTIONS = {"ncsim.nc.interpret": "split on the branch split-interp"}
+#: modules allowed over the size limits, each with the reason (none at present)
+SIZE_EXCEPTIONS: dict[str, str] = {}
 
 
 @dataclass(frozen=True)
