@@ -91,3 +91,14 @@ def um_per_m_s2_to_s2(value_um_per_m_s2):
 def s2_to_um_per_m_s2(value_s2):
     """A compliance in mm per (mm/s^2) = s^2 to um per (m/s^2)."""
     return value_s2 * (UM_PER_MM * MM_PER_M)
+
+
+#: feed units an output can be printed in (``--feed-unit``); mm/min is the default everywhere
+FEED_UNITS = ("mm/min", "m/min", "mm/s", "in/min")
+
+
+def feed_from_mm_s(value_mm_s, unit: str = "mm/min"):
+    """A feed in mm/s to ``unit`` (one of ``FEED_UNITS``)."""
+    if unit not in FEED_UNITS:
+        raise ValueError(f"unknown feed unit {unit!r} (use {', '.join(FEED_UNITS)})")
+    return value_mm_s / FACTORS["velocity"][unit]

@@ -191,7 +191,7 @@ def test_every_json_summary_key_is_documented(readme, repo_root):
     s = json.loads(CliRunner().invoke(cli, ["run", str(prog), "-m", "mikron", "--json",
                                             "--crosscheck"]).stdout)
     keys = set(s) | set(s["model"]) | set(s["feeds"][0]) | set(s["blocks_detail"][0]) \
-        | set(s["slowest_blocks"][0]) | (set(s["crosscheck"]) - {"reasons"})
+        | set(s["slowest_blocks"][0]) | set(s["lost_by_cause"][0]) | (set(s["crosscheck"]) - {"reasons"})
     documented = _documented(section(readme, "JSON summary"))
     assert keys - documented == set()
 

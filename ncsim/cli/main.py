@@ -26,7 +26,7 @@ from ncsim import __version__
 from ncsim.cli.batch import batch
 from ncsim.cli.gap import gap
 from ncsim.errors import ExitStatus, NcsimError, UsageError
-from ncsim.units import s_to_ms
+from ncsim.units import FEED_UNITS, s_to_ms
 
 
 class NcsimGroup(click.Group):
@@ -195,6 +195,18 @@ def machine_option(required: bool = True):
                              "(`ncsim machines`), e.g. mikron.")
 
 
+def feed_unit_option(what: str = "Feeds"):
+    """``--feed-unit``: the one unit of every feed a text output prints (mm/min by default)."""
+    return click.option("--feed-unit", type=click.Choice(FEED_UNITS), default="mm/min",
+                        show_default=True, help=f"{what} in this unit.")
+
+
+def _text_only_feed_unit(feed_unit: str, as_json: bool) -> None:
+    if as_json and feed_unit != "mm/min":
+        raise UsageError("--feed-unit applies to the text output; the JSON keeps mm/min "
+                         "(the unit is in its key names)")
+
+
 def simulation_options(func):
     """PROGRAM-independent options of every command that simulates: --setup and the model."""
     for field, what in reversed(MODEL_FLAGS):
@@ -310,14 +322,17 @@ def _echo_warnings(sim) -> None:
               help="Trace columns: 'default', 'all' or a comma-separated list.")
 @click.option("--crosscheck", is_flag=True,
               help="Compare every block with ruckig's time-optimal motion (slower).")
+@feed_unit_option("Feeds of the text output")
 def run_cmd(program, machine_name, as_json, top, trace_file, dt_s, trace_columns, crosscheck,
-            **params):
-    """Simulate PROGRAM on MACHINE: cycle time, programmed against reached feed, and the
-    blocks that lose the most time with their line and the limit that holds them."""
+            feed_unit, **params):
+    """Simulate PROGRAM on MACHINE: cycle time, programmed against reached feed, the time
+    lost by cause (feed moves and rapids apart), and the blocks that lose the most time with
+    their line, the limit that holds them and what they lose the time to."""
     from ncsim.report import summary as report
     from ncsim.pipeline import STAGES, simulate
 
     options = model_options(params)
+    _text_only_feed_unit(feed_unit, as_json)
     if not trace_file and (dt_s is not None or trace_columns != "default"):
         raise UsageError("--dt and --trace-columns apply to the trace: add --trace FILE.csv")
     stages = [*STAGES, *["cross-check"] * crosscheck, "summary"]
@@ -351,7 +366,7 @@ def run_cmd(program, machine_name, as_json, top, trace_file, dt_s, trace_columns
     if as_json:
         click.echo(summary_json(summary))
         return
-    click.echo(report.format_text(summary), nl=False)
+    click.echo(report.format_text(summary, feed_unit), nl=False)
     if check is not None:
         click.echo(_crosscheck_text(check))
     if rows is not None:

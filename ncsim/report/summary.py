@@ -14,6 +14,13 @@ Definitions (all over the moving time, standstills excluded unless said otherwis
 * per block ``limit``: the block's set-point limit when the set point is below the
   programmed feed; otherwise what holds the feed in the middle of the block (a ramp towards
   a transition, a corner...), or ``programmed`` when the programmed feed is reached.
+* time lost (``report.losses``): the real time minus the time at the programmed feeds (rapids
+  at their traverse speed), by cause over the program (``lost_by_cause``) and per block
+  (``time_lost_s`` and ``lost_to``), feed moves and rapids apart: the slowest feed blocks
+  (``slowest_blocks``) and the slowest rapids (``slowest_rapids``) are listed separately.
+
+Feeds are in mm/min in the JSON (the unit is in the key names); :func:`format_text` prints
+them in the unit asked for (``units.FEED_UNITS``).
 """
 from __future__ import annotations
 
@@ -25,7 +32,8 @@ import numpy as np
 from ncsim import __version__
 from ncsim.motion import LIMIT_LABELS, Limit, Phase
 from ncsim.plan.sample import block_table
-from ncsim.units import mm_s_to_mm_min
+from ncsim.report.losses import cause_rows, losses
+from ncsim.units import feed_from_mm_s, mm_min_to_mm_s, mm_s_to_mm_min
 
 SCHEMA_VERSION = 1
 
@@ -51,17 +59,20 @@ def time_by_limit_s(motion) -> dict[str, dict[str, float]]:
     return out
 
 
-def block_rows(motion) -> dict[str, np.ndarray]:
-    """``sample.block_table`` plus the refined per-block limit and rapid-aware lost time."""
+def block_rows(motion, loss=None) -> dict[str, np.ndarray]:
+    """``sample.block_table`` plus the refined per-block limit, the lost time against the
+    programmed feed (a rapid: its traverse speed) and the cause losing the block most time
+    (``report.losses``; ``loss`` may be given when already computed)."""
     rows = block_table(motion)
     path = motion.path
     if path.n == 0:
         rows["limit"] = np.zeros(0, dtype=object)
+        rows["lost_to"] = np.zeros(0, dtype=object)
         return rows
-    feed = path.feed_mm_s
-    reference = np.where(path.rapid, motion.cap_mm_s, feed)  # a rapid's "programmed" speed
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rows["time_lost_s"] = rows["duration_s"] - np.where(reference > 0, path.length_mm / reference, 0.0)
+    loss = losses(motion) if loss is None else loss
+    reference = loss.reference_mm_s
+    rows["time_lost_s"] = loss.lost_s
+    rows["lost_to"] = np.asarray(LIMIT_LABELS, dtype=object)[loss.cause.astype(np.int64)]
     mid = 0.5 * (motion.t_start_s + motion.t_end_s)
     k = np.clip(np.searchsorted(motion.piece_t_s, mid, side="right") - 1, 0, len(motion.piece_limit) - 1)
     holding = (np.asarray(LIMIT_LABELS, dtype=object)[motion.piece_limit[k]] if len(motion.piece_limit)
@@ -105,14 +116,17 @@ def summary(sim, *, top: int = 10, include_blocks: bool = True) -> dict:
     motion = sim.motion
     path = motion.path
     tbl = time_by_limit_s(motion)
-    rows = block_rows(motion)
+    loss = losses(motion)
+    rows = block_rows(motion, loss)
     dur = motion.duration_s if path.n else np.zeros(0)
     feed_moves = ~path.rapid & (path.length_mm > 0) if path.n else np.zeros(0, bool)
     feed_time = float(dur[feed_moves].sum()) if path.n else 0.0
     ideal = float((path.length_mm[feed_moves] / path.feed_mm_s[feed_moves]).sum()) if path.n else 0.0
     limited = sum(v for k, v in tbl["feed"].items() if k != Limit.PROGRAMMED.label)
     files = path.files
-    order = np.argsort(-rows["time_lost_s"], kind="stable")[:top] if path.n else []
+    order = np.argsort(-rows["time_lost_s"], kind="stable") if path.n else np.zeros(0, np.int64)
+    rapid_order = order[path.rapid[order]][:top] if path.n else order
+    order = order[~path.rapid[order]][:top] if path.n else order
 
     out = OrderedDict(
         schema=SCHEMA_VERSION, ncsim_version=__version__,
@@ -128,8 +142,12 @@ def summary(sim, *, top: int = 10, include_blocks: bool = True) -> dict:
         feed_efficiency=ideal / feed_time if feed_time > 0 else 1.0,
         limited_fraction=limited / feed_time if feed_time > 0 else 0.0,
         time_by_limit_s=tbl["feed"], rapid_time_by_limit_s=tbl["rapid"],
+        ideal_time_s=float(loss.ideal_s.sum()), lost_time_s=loss.total_lost_s,
+        dwell_time_s=loss.dwell_s,
+        lost_by_cause=cause_rows(loss, files, path),
         feeds=feed_table(motion),
         slowest_blocks=block_dicts(rows, files, order),
+        slowest_rapids=block_dicts(rows, files, rapid_order),
         warnings=[w.render() for w in sim.warnings],
     )
     if include_blocks:
@@ -153,6 +171,7 @@ def block_dicts(rows: dict, files, index) -> list[dict]:
         "feed_max_mm_min": _feeds(rows["feed_max_mm_s"][idx]),
         "limit": [str(v) for v in rows["limit"][idx].tolist()],
         "time_lost_s": rows["time_lost_s"][idx].astype(np.float64).tolist(),
+        "lost_to": [str(v) for v in rows["lost_to"][idx].tolist()],
     }
     keys = tuple(columns)
     return [dict(zip(keys, values)) for values in zip(*columns.values())]
@@ -167,46 +186,89 @@ def _feeds(v_mm_s: np.ndarray) -> list:
     return out
 
 
-def format_text(s: dict) -> str:
-    """A terminal rendering of :func:`summary`."""
+#: decimals a feed is printed with, per unit (``units.FEED_UNITS``)
+FEED_DECIMALS = {"mm/min": 0, "m/min": 3, "mm/s": 2, "in/min": 1}
+TEXT_RAPIDS = 5     # rapids listed at most in the text (all --top of them in the JSON)
+
+
+def format_text(s: dict, feed_unit: str = "mm/min") -> str:
+    """A terminal rendering of :func:`summary`, feeds in ``feed_unit`` (mm/min by default)."""
+    def feed(v_mm_min, width: int) -> str:
+        if v_mm_min is None:
+            return f"{'-':>{width}}"
+        value = feed_from_mm_s(mm_min_to_mm_s(v_mm_min), feed_unit)
+        return f"{value:{width}.{FEED_DECIMALS.get(feed_unit, 1)}f}"
+
     lines = [
         f"program     {s['program']}",
         f"machine     {s['machine']}",
         f"cycle time  {s['cycle_time_s']:.3f} s   (feed moves {s['feed_time_s']:.3f} s, rapids "
         f"{s['rapid_time_s']:.3f} s, standing {s['standstill_time_s']:.3f} s)",
+        f"            = {s['ideal_time_s']:.3f} s at the programmed feeds and rapid traverse + "
+        f"{s['lost_time_s']:.3f} s lost" + (f" + {s['dwell_time_s']:.3f} s dwell (G4)"
+                                              if s["dwell_time_s"] > 0 else ""),
         f"path        {s['path_length_mm']:.1f} mm in {s['blocks']} blocks",
         f"feed        efficiency {100 * s['feed_efficiency']:.1f} %  "
         f"(ideal time at programmed feed / real time); limited {100 * s['limited_fraction']:.1f} % of feed time",
     ]
     if s["feeds"]:
         lines.append("")
-        lines.append("programmed vs reached feed (mm/min)")
+        lines.append(f"programmed vs reached feed ({feed_unit})")
         lines.append(f"  {'programmed':>10} {'set point':>10} {'reached max':>11} {'mean':>10} {'blocks':>8} {'time s':>9}")
         for f in s["feeds"]:
-            lines.append(f"  {f['feed_programmed_mm_min']:10.0f} {f['setpoint_min_mm_min']:10.0f} "
-                         f"{f['feed_max_mm_min']:11.0f} {f['feed_mean_mm_min']:10.0f} {f['blocks']:8d} {f['time_s']:9.3f}")
-    if s["time_by_limit_s"]:
+            lines.append(f"  {feed(f['feed_programmed_mm_min'], 10)} {feed(f['setpoint_min_mm_min'], 10)} "
+                         f"{feed(f['feed_max_mm_min'], 11)} {feed(f['feed_mean_mm_min'], 10)} "
+                         f"{f['blocks']:8d} {f['time_s']:9.3f}")
+    lines += _cause_lines(s)
+    for key, title, most in (("slowest_blocks", "feed blocks losing the most time", None),
+                             ("slowest_rapids", "rapids losing the most time", TEXT_RAPIDS)):
+        blocks = s.get(key) or []
+        if not blocks:
+            continue
         lines.append("")
-        lines.append("feed-move time by limit")
-        total = s["feed_time_s"] or 1.0
-        for k, v in sorted(s["time_by_limit_s"].items(), key=lambda kv: -kv[1]):
-            if v < 5e-4:  # a rounding sliver, not a limit worth a line
-                continue
-            lines.append(f"  {k:<15} {v:9.3f} s  {100 * v / total:5.1f} %")
-    if s["slowest_blocks"]:
-        lines.append("")
-        lines.append("blocks losing the most time")
-        lines.append(f"  {'file:line':<28} {'block':>7} {'prog':>7} {'set':>7} {'reached':>7} {'limit':<15} {'time s':>8} {'lost s':>8}")
-        for b in s["slowest_blocks"]:
-            where = f"{os.path.basename(b['file'])}:{b['line']}"
-            prog = "rapid" if b["feed_programmed_mm_min"] is None else f"{b['feed_programmed_mm_min']:.0f}"
-            lines.append(f"  {where[-28:]:<28} {b['block']:>7} {prog:>7} {_num(b['feed_setpoint_mm_min']):>7} "
-                         f"{_num(b['feed_max_mm_min']):>7} {b['limit']:<15} {b['duration_s']:8.3f} {b['time_lost_s']:8.3f}")
+        lines.append(f"{title} (feeds in {feed_unit})")
+        lines.append(f"  {'file:line':<28} {'block':>7} {'prog':>8} {'set':>8} {'reached':>8} "
+                     f"{'limit':<14} {'lost to':<14} {'time s':>8} {'lost s':>8}")
+        for b in blocks[:most]:
+            where = _where(b["file"], b["line"])
+            prog = f"{'rapid':>8}" if b["feed_programmed_mm_min"] is None else feed(b["feed_programmed_mm_min"], 8)
+            lines.append(f"  {where:<28} {b['block']:>7} {prog} {feed(b['feed_setpoint_mm_min'], 8)} "
+                         f"{feed(b['feed_max_mm_min'], 8)} {b['limit']:<14} {b['lost_to']:<14} "
+                         f"{b['duration_s']:8.3f} {b['time_lost_s']:8.3f}")
     if s["warnings"]:
         lines.append("")
         lines.append(f"{len(s['warnings'])} warning(s) (see stderr)")
     return "\n".join(lines) + "\n"
 
 
-def _num(v) -> str:
-    return "-" if v is None else f"{v:.0f}"
+def _cause_lines(s: dict) -> list[str]:
+    """Time lost by cause over the program, feed moves then rapids, with the worst block."""
+    rows = [r for r in s.get("lost_by_cause", []) if r["time_lost_s"] >= 5e-4]  # no slivers
+    if not rows:
+        return []
+    total = s["cycle_time_s"] or 1.0
+    out = ["", "time lost by cause (against the programmed feeds; rapids: their traverse speed)",
+           f"  {'':<16} {'lost s':>9} {'of cycle':>8} {'blocks':>7}  worst block (its loss)"]
+    for moves, title in (("feed", "feed moves"), ("rapid", "rapids")):
+        part = [r for r in rows if r["moves"] == moves]
+        if not part:
+            continue
+        out.append(f"  {title}")
+        for r in part:
+            worst = "-" if r["worst_file"] is None else \
+                f"{_where(r['worst_file'], r['worst_line'])} ({r['worst_time_lost_s']:.3f} s)"
+            settle = f"; settling {r['settle_s']:.3f} s" if r["settle_s"] >= 5e-4 else ""
+            out.append(f"    {r['cause']:<14} {r['time_lost_s']:9.3f} {100 * r['time_lost_s'] / total:6.1f} % "
+                       f"{r['blocks']:7d}  {worst}{settle}")
+    return out
+
+
+def _where(file: str, line: int, width: int = 28) -> str:
+    """``name:line`` in at most ``width`` characters (a long file name loses its middle)."""
+    tail = f":{line}"
+    name = os.path.basename(file)
+    room = width - len(tail)
+    if len(name) > room:
+        keep = max(room - 2, 2)
+        name = name[:keep - keep // 2] + ".." + name[len(name) - keep // 2:]
+    return name + tail

@@ -1,0 +1,210 @@
+"""Where the time goes: the time lost against the programmed feed, by cause and by block.
+
+The *ideal* time of a block is its length at its reference speed: the programmed feed F for a
+feed move (G1/G2/G3), the rapid traverse speed for a rapid (G0: ``min_i V_mi / |u_i|`` along
+its direction, paper eq. 7). Everything above that is *lost*::
+
+    cycle time = ideal time + time lost + programmed dwell (G4)
+
+and every lost second goes to one cause, a ``motion.Limit`` label:
+
+* while moving, each stretch of a constant-jerk piece of the motion inside one block loses
+  ``dt - ds / v_ref(block)``; the loss goes to the limit of the piece, i.e. what the feed law
+  is doing there: a steady phase held below F by ``ncu_path_jerk`` or ``cycle_time``, a ramp
+  down to (or up from) an ``exact_stop``, a ``transition``, a ``corner``, the
+  ``program_end``, an ``aux_stop`` (G0/G1 change, M output, STOPRE), or ``programmed`` for the
+  ramps between two different programmed feeds;
+* standing still, the exact-stop settle (the G601/G602 window must be reached before the
+  block change: 840D Function Manual Basic Functions, B1 "Continuous-path mode, exact stop
+  and LookAhead") is lost to ``exact_stop`` and charged to the block that ends there; a G4
+  dwell is programmed time, not a loss.
+
+Pieces and blocks are merged in one pass (both are ordered in time), so a piece that spans
+several short blocks is split at the block ends: the per-block sums are exact and linear in
+the number of blocks. A block's loss is ``duration - length / v_ref`` plus the exact-stop
+settle at its end; the blocks' losses add up to the causes' losses.
+
+``feed`` and ``rapid`` are kept apart: a machinist reads the cutting losses first; rapids lose
+their ramps at every G0/G1 change, which CAM cannot change much.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ncsim.motion import LIMIT_LABELS, Limit, Phase
+from ncsim.plan.kinematics import axis_velocity_feed_limit_mm_s
+
+N_CAUSES = len(LIMIT_LABELS)
+KINDS = ("feed", "rapid")
+TINY_S = 1e-9        # a block's loss to a cause below this is rounding (equal feeds)
+MIN_CAUSE_S = 1e-6   # a cause losing less over the whole program is not listed
+
+
+@dataclass(frozen=True, slots=True)
+class Losses:
+    """Lost time of a motion (module docstring). ``n`` blocks."""
+
+    reference_mm_s: np.ndarray   # (n,) F, or the rapid traverse speed of a G0 block
+    ideal_s: np.ndarray          # (n,) length / reference
+    lost_s: np.ndarray           # (n,) duration - ideal + the exact-stop settle at its end
+    settle_s: np.ndarray         # (n,) exact-stop settle at the block's end
+    cause: np.ndarray            # (n,) int8 Limit losing the block the most time, settle
+                                 # included (NONE: the block loses nothing)
+    dwell_s: float               # programmed G4 dwell (not lost)
+    # per cause (N_CAUSES), for feed moves [0] and rapids [1]
+    by_cause_s: np.ndarray       # (2, N_CAUSES) seconds lost
+    settle_by_kind_s: np.ndarray  # (2,) the exact-stop settle part of by_cause_s[:, EXACT_STOP]
+    blocks_by_cause: np.ndarray  # (2, N_CAUSES) blocks losing more than TINY_S to the cause
+    worst_block: np.ndarray      # (2, N_CAUSES) block losing the most to the cause (-1: none)
+    worst_lost_s: np.ndarray     # (2, N_CAUSES) what that block loses to it
+
+    @property
+    def total_lost_s(self) -> float:
+        """Moving losses and exact-stop settling, feed moves and rapids."""
+        return float(self.by_cause_s.sum())
+
+
+def reference_feed_mm_s(motion) -> np.ndarray:
+    """The speed each block would run at with nothing in the way: F for a feed move, the
+    rapid traverse speed ``min_i V_mi / |u_i|`` (eq. 7) of the line for a G0 block."""
+    path = motion.path
+    ref = np.asarray(path.feed_mm_s, dtype=np.float64).copy()
+    rapid = np.asarray(path.rapid, dtype=bool)
+    if rapid.any():
+        chord = path.end_mm[rapid] - path.start_mm[rapid]
+        norm = np.linalg.norm(chord, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = np.where(norm[:, None] > 0, chord / norm[:, None], 0.0)
+        v_t = axis_velocity_feed_limit_mm_s(u, motion.machine.max_velocity_mm_s)
+        # a rapid never runs above its traverse speed; the set point is the fallback for a
+        # zero-length move (no direction)
+        ref[rapid] = np.where(np.isfinite(v_t) & (v_t > 0), v_t, motion.cap_mm_s[rapid])
+    return ref
+
+
+def _intervals(motion):
+    """Merge the piece boundaries and the block ends: for every stretch [t_i, t_{i+1}) its
+    piece and its block. Returns (t0, t1, piece, block) of the moving stretches."""
+    pt = np.asarray(motion.piece_t_s, dtype=np.float64)
+    te = np.asarray(motion.t_end_s, dtype=np.float64)
+    m, n = len(pt) - 1, len(te)
+    # merged sorted times without a full sort: each sequence is sorted already
+    pos_p = np.arange(len(pt)) + np.searchsorted(te, pt, side="left")
+    pos_e = np.arange(n) + np.searchsorted(pt, te, side="right")
+    t = np.empty(len(pt) + n)
+    t[pos_p] = pt
+    t[pos_e] = te
+    t0, t1 = t[:-1], t[1:]
+    keep = t1 > t0
+    t0, t1 = t0[keep], t1[keep]
+    piece = np.clip(np.searchsorted(pt, t0, side="right") - 1, 0, m - 1)
+    block = np.clip(np.searchsorted(te, t0, side="right"), 0, n - 1)
+    moving = motion.piece_phase[piece] != Phase.STOP
+    return t0[moving], t1[moving], piece[moving], block[moving]
+
+
+def _s_at(motion, piece, t):
+    tau = t - motion.piece_t_s[piece]
+    return motion.piece_s_mm[piece] + tau * (motion.piece_v_mm_s[piece] + tau * (
+        0.5 * motion.piece_a_mm_s2[piece] + tau * motion.piece_j_mm_s3[piece] / 6.0))
+
+
+def settle_s(motion) -> np.ndarray:
+    """Exact-stop settle at the end of each block: the junction's standstill minus the G4
+    dwell programmed there (``limits.path_limits`` adds the two)."""
+    path = motion.path
+    n = path.n
+    dwell = np.asarray(motion.junction_dwell_s, dtype=np.float64)
+    g4 = np.zeros(n + 1)
+    g4[:n] += path.dwell_before_s
+    g4[n] += path.end_dwell_s
+    settle = np.where(path.exact_stop, np.maximum(dwell[1:] - g4[1:], 0.0), 0.0)
+    return settle
+
+
+def losses(motion) -> Losses:
+    """The lost time of ``motion`` by cause and block (module docstring)."""
+    path = motion.path
+    n = path.n
+    ref = reference_feed_mm_s(motion) if n else np.zeros(0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ideal = np.where(ref > 0, path.length_mm / ref, 0.0) if n else np.zeros(0)
+    g4_total = float(np.sum(path.dwell_before_s) + path.end_dwell_s) if n else float(path.end_dwell_s)
+    by_cause = np.zeros((2, N_CAUSES))
+    blocks_by = np.zeros((2, N_CAUSES), dtype=np.int64)
+    worst = np.full((2, N_CAUSES), -1, dtype=np.int64)
+    worst_lost = np.zeros((2, N_CAUSES))
+    if n == 0:
+        e = np.zeros(0)
+        return Losses(e, e, e, e, np.zeros(0, np.int8), g4_total, by_cause, np.zeros(2),
+                      blocks_by, worst, worst_lost)
+
+    t0, t1, piece, block = _intervals(motion)
+    ds = _s_at(motion, piece, t1) - _s_at(motion, piece, t0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ideal_part = np.where(ref[block] > 0, ds / ref[block], 0.0)
+    lost = (t1 - t0) - ideal_part
+    cause = motion.piece_limit[piece].astype(np.int64)
+    settle = settle_s(motion)
+
+    # (block, cause) sums: the stretches are in time order, so blocks are non-decreasing;
+    # a stable sort on the combined key groups each block's causes
+    settled = np.flatnonzero(settle > 0)
+    key = np.concatenate([block * N_CAUSES + cause, settled * N_CAUSES + int(Limit.EXACT_STOP)])
+    value = np.concatenate([lost, settle[settled]])
+    order = np.argsort(key, kind="stable")
+    key, value = key[order], value[order]
+    first = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
+    pair_key = key[first]
+    pair_lost = np.add.reduceat(value, first) if len(value) else np.zeros(0)
+    pair_block = pair_key // N_CAUSES
+    pair_cause = pair_key % N_CAUSES
+    significant = pair_lost > TINY_S
+
+    block_lost = np.bincount(pair_block, weights=pair_lost, minlength=n)
+    # the cause losing each block the most (pairs grouped by block: max per group)
+    block_cause = np.full(n, int(Limit.NONE), dtype=np.int8)
+    if significant.any():
+        pb, pc, pl = pair_block[significant], pair_cause[significant], pair_lost[significant]
+        o = np.lexsort((-pl, pb))
+        head = np.concatenate([[True], pb[o][1:] != pb[o][:-1]])
+        block_cause[pb[o][head]] = pc[o][head]
+
+    kind = path.rapid[pair_block].astype(np.int64)
+    for k in (0, 1):
+        sel = (kind == k) & significant
+        by_cause[k] = np.bincount(pair_cause[sel], weights=pair_lost[sel], minlength=N_CAUSES)
+        blocks_by[k] = np.bincount(pair_cause[sel], minlength=N_CAUSES)
+        if sel.any():
+            pc, pl, pb = pair_cause[sel], pair_lost[sel], pair_block[sel]
+            o = np.lexsort((-pl, pc))
+            head = np.concatenate([[True], pc[o][1:] != pc[o][:-1]])
+            worst[k, pc[o][head]] = pb[o][head]
+            worst_lost[k, pc[o][head]] = pl[o][head]
+    rapid = np.asarray(path.rapid, dtype=bool)
+    settle_by_kind = np.array([settle[~rapid].sum(), settle[rapid].sum()])
+    return Losses(reference_mm_s=ref, ideal_s=ideal, lost_s=np.maximum(block_lost, 0.0),
+                  settle_s=settle, cause=block_cause, dwell_s=g4_total,
+                  by_cause_s=np.maximum(by_cause, 0.0), settle_by_kind_s=settle_by_kind,
+                  blocks_by_cause=blocks_by, worst_block=worst, worst_lost_s=worst_lost)
+
+
+def cause_rows(loss: Losses, files, path) -> list[dict]:
+    """The causes losing time, largest first, feed moves and rapids apart (README "JSON
+    summary", ``lost_by_cause``)."""
+    rows = []
+    for k, kind in enumerate(KINDS):
+        for c in np.flatnonzero(loss.by_cause_s[k] > MIN_CAUSE_S):
+            b = int(loss.worst_block[k, c])
+            rows.append({
+                "moves": kind, "cause": LIMIT_LABELS[c], "time_lost_s": float(loss.by_cause_s[k, c]),
+                "settle_s": float(loss.settle_by_kind_s[k]) if c == Limit.EXACT_STOP else 0.0,
+                "blocks": int(loss.blocks_by_cause[k, c]),
+                "worst_block": b, "worst_file": files[int(path.file_index[b])] if b >= 0 else None,
+                "worst_line": int(path.line[b]) if b >= 0 else None,
+                "worst_time_lost_s": float(loss.worst_lost_s[k, c]),
+            })
+    rows.sort(key=lambda r: (r["moves"] != "feed", -r["time_lost_s"]))
+    return rows
