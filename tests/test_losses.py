@@ -156,3 +156,10 @@ def test_real_programs_rank_exact_stops_where_g60_is_active(shared, name):
         lost = [r["time_lost_s"] for r in s["lost_by_cause"] if r["moves"] == moves]
         assert lost == sorted(lost, reverse=True)
     assert all(r["time_lost_s"] > 0 for r in s["lost_by_cause"])
+
+
+def test_a_failed_max_time_check_names_the_cause_first(g60_square):
+    r = CliRunner().invoke(cli, ["check", str(g60_square), "-m", "mikron", "--max-time", "1"])
+    assert r.exit_code == 1
+    where = r.stdout.splitlines()[2].strip()
+    assert where.startswith("exact_stop loses") and "over 3 feed blocks" in where

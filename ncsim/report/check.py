@@ -86,6 +86,14 @@ def _slowest(summary: dict, feed_only: bool = False) -> tuple[str, ...]:
     return tuple(_where(b) for b in blocks[:WHERE_BLOCKS])
 
 
+def _top_causes(summary: dict, n: int = 2) -> tuple[str, ...]:
+    """The causes losing the most time over the program (``lost_by_cause``), one line each."""
+    rows = sorted(summary.get("lost_by_cause", []), key=lambda r: -r["time_lost_s"])[:n]
+    return tuple(f"{r['cause']} loses {r['time_lost_s']:.3f} s over {r['blocks']} "
+                 f"{'rapids' if r['moves'] == 'rapid' else 'feed blocks'} (most at "
+                 f"{r['worst_file']}:{r['worst_line']})" for r in rows)
+
+
 def _slower_blocks(summary: dict, baseline: dict) -> tuple[str, ...]:
     now, then = summary.get("blocks_detail"), baseline.get("blocks_detail")
     if not now or not then or len(now) != len(then):
@@ -120,7 +128,7 @@ def evaluate(summary: dict, *, max_time_s: float | None = None,
         ok = t <= max_time_s
         out.append(CheckResult("max_time", ok, t, max_time_s,
                                f"cycle time {t:.3f} s {'<=' if ok else '>'} {max_time_s:.3f} s",
-                               () if ok else _slowest(summary)))
+                               () if ok else _top_causes(summary) + _slowest(summary)))
     if min_feed_ratio is not None:
         r = summary["feed_efficiency"]
         ok = r >= min_feed_ratio
