@@ -32,12 +32,12 @@ def _row(out: str, radius: str) -> list[str]:
 
 
 def test_explain_table_shows_the_paper_values():
-    r = invoke("explain", "--machine", "mikron")
+    r = invoke("explain", "--machine", "mikron", "--feed-unit", "m/min")   # the paper's unit
     assert r.exit_code == 0, r.output
     out = r.stdout
     assert "J_tcurv       6 m/s^3" in out and "(eq. 10: J_curv x r_jct)" in out
     assert "J_t (eq. 9)   5 .. 7.07 m/s^3" in out
-    assert "V_t (eq. 7)   30 .. 42.4 m/min" in out
+    assert "V_t (eq. 7)   30.00 .. 42.43 m/min" in out
     r25 = _row(out, "2.5")
     # columns: R, V_Jtcurv, V_Jt min..max, V_An min..max, V_t min..max, V_tcy, V_fr, set point, binds
     assert r25[1] == "2.01" and r25[2].startswith("1.89..")     # paper 2.01, min V_Jt 1.9
@@ -51,16 +51,25 @@ def test_explain_table_shows_the_paper_values():
     assert radii == ["1", "2.5", "5", "10", "20", "30", "50", "100"]
 
 
+def test_explain_feeds_are_in_mm_min_by_default_like_run():
+    out = invoke("explain", "--machine", "mikron").stdout
+    assert "V_t (eq. 7)   30000 .. 42426 mm/min" in out
+    assert "steady feed (mm/min) each limit allows" in out and "m/min)" not in out.replace("mm/min", "")
+    r25 = _row(out, "2.5")
+    assert float(r25[1]) == pytest.approx(2010, abs=5) and float(r25[5]) == pytest.approx(78500, rel=1e-3)
+
+
 def test_explain_json_and_chosen_radii():
     r = invoke("explain", "-m", "mikron", "--radius-mm", 30, "--radius-mm", 2.5, "--json")
     assert r.exit_code == 0, r.output
     data = json.loads(r.stdout)
     rows = data["radii"]
     assert [row["radius_mm"] for row in rows] == [2.5, 30.0]
-    assert rows[0]["v_jtcurv_m_min"] == pytest.approx(2.01, abs=0.005)
-    assert rows[1]["v_jtcurv_m_min"] == pytest.approx(10.53, abs=0.005)
-    assert rows[1]["v_jt_min_m_min"] == pytest.approx(9.9, abs=0.05)
-    assert rows[0]["v_an_max_m_min"] > rows[0]["v_an_min_m_min"]
+    assert data["units"] == "mm/min"
+    assert rows[0]["v_jtcurv_mm_min"] == pytest.approx(2010, abs=5)
+    assert rows[1]["v_jtcurv_mm_min"] == pytest.approx(10530, abs=5)
+    assert rows[1]["v_jt_min_mm_min"] == pytest.approx(9900, abs=50)
+    assert rows[0]["v_an_max_mm_min"] > rows[0]["v_an_min_mm_min"]
 
 
 def test_explain_plot(tmp_path):

@@ -553,13 +553,15 @@ def machines_cmd() -> None:
               help="Arc radius of a table row (repeatable) [default: 1 2.5 5 10 20 30 50 100].")
 @click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
               help="Also draw the limits against the radius (.png, .svg, .pdf).")
-@click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
-def explain_cmd(machine_name, radii_mm, plot_file, as_json) -> None:
+@click.option("--json", "as_json", is_flag=True, help="Print the table as JSON (feeds in mm/min).")
+@feed_unit_option("Feeds of the text and the plot")
+def explain_cmd(machine_name, radii_mm, plot_file, as_json, feed_unit) -> None:
     """Show MACHINE's axis limits, NCU settings and the steady feed each limit allows on an
     XY circle of radius R (paper eq. 2-11), with the limit that binds."""
     from ncsim.report.explain import DEFAULT_RADII_MM, direction_extremes, radius_table
     from ncsim.machine import load_machine
 
+    _text_only_feed_unit(feed_unit, as_json and not plot_file)
     if plot_file:
         from ncsim.report.plot import check_figure_file
         check_figure_file(plot_file)
@@ -567,30 +569,43 @@ def explain_cmd(machine_name, radii_mm, plot_file, as_json) -> None:
     radii = sorted(set(radii_mm)) if radii_mm else list(DEFAULT_RADII_MM)
     rows = radius_table(machine, radii)
     if as_json:
-        click.echo(json.dumps({"machine": machine.name, "units": "m/min",
+        click.echo(json.dumps({"machine": machine.name, "units": "mm/min",
                                "radii": [r.as_dict() for r in rows]}, indent=1))
     else:
-        click.echo(_explain_text(machine, direction_extremes(machine), rows))
+        click.echo(_explain_text(machine, direction_extremes(machine), rows, feed_unit))
     if plot_file:
         import numpy as np
 
         from ncsim.report.plot import explain_figure, save_figure
         lo, hi = min(radii), max(radii)
         dense = np.geomspace(lo, hi, 80) if hi > lo else np.array([lo])
-        save_figure(explain_figure(radius_table(machine, dense), machine.name), plot_file)
+        save_figure(explain_figure(radius_table(machine, dense), machine.name, feed_unit), plot_file)
         if not as_json:
             click.echo(f"\nwrote {plot_file}")
 
 
-def _explain_text(machine, ext, rows) -> str:
-    from ncsim.units import mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min
+#: decimals of a feed in the explain table, per unit
+EXPLAIN_DECIMALS = {"mm/min": 0, "m/min": 2, "mm/s": 1, "in/min": 1}
+
+
+def _explain_text(machine, ext, rows, feed_unit: str = "mm/min") -> str:
+    from ncsim.units import feed_from_mm_s, mm_min_to_mm_s, mm_s2_to_m_s2, mm_s3_to_m_s3
     n = machine.ncu
+    d = EXPLAIN_DECIMALS[feed_unit]
+    unit = feed_unit
+
+    def f(v_mm_s) -> float:
+        return feed_from_mm_s(v_mm_s, feed_unit)
+
+    def g(v_mm_min) -> float:
+        return feed_from_mm_s(mm_min_to_mm_s(v_mm_min), feed_unit)
+
     out = [f"machine  {machine.name}: {machine.description}", f"file     {machine.source}", "",
-           "axes   V_max m/min  A_max m/s^2  J_max m/s^3  Kv 1/s",
-           "       (MD32000)    (MD32300)    (MD32431)    (MD32200)"]
+           f"axes   V_max {unit:<7} A_max m/s^2  J_max m/s^3  Kv 1/s",
+           "       (MD32000)      (MD32300)    (MD32431)    (MD32200)"]
     for a in machine.axes:
         kv = "-" if a.position_gain_1_s is None else f"{a.position_gain_1_s:g}"
-        out.append(f"  {a.name}    {mm_s_to_m_min(a.max_velocity_mm_s):9.3g}  "
+        out.append(f"  {a.name}    {f(a.max_velocity_mm_s):11.{d}f}  "
                    f"{mm_s2_to_m_s2(a.max_accel_mm_s2):11.3g}  {mm_s3_to_m_s3(a.max_jerk_mm_s3):11.3g}  {kv:>9}")
     out += ["", "NCU",
             f"  interpolation cycle t_cy           {s_to_ms(n.ipo_cycle_s):g} ms",
@@ -609,19 +624,19 @@ def _explain_text(machine, ext, rows) -> str:
             f"{mm_s3_to_m_s3(ext['jerk_t_mm_s3'][1]):.3g} m/s^3",
             f"  A_n (eq. 8)   {mm_s2_to_m_s2(ext['accel_n_mm_s2'][0]):.3g} .. "
             f"{mm_s2_to_m_s2(ext['accel_n_mm_s2'][1]):.3g} m/s^2",
-            f"  V_t (eq. 7)   {mm_s_to_m_min(ext['velocity_t_mm_s'][0]):.3g} .. "
-            f"{mm_s_to_m_min(ext['velocity_t_mm_s'][1]):.3g} m/min",
-            "", "steady feed (m/min) each limit allows on an XY circle of radius R; set point: what",
+            f"  V_t (eq. 7)   {f(ext['velocity_t_mm_s'][0]):.{d}f} .. "
+            f"{f(ext['velocity_t_mm_s'][1]):.{d}f} {unit}",
+            "", f"steady feed ({unit}) each limit allows on an XY circle of radius R; set point: what",
             "ncsim plans for a full circle from rest without F limit (eq. 12), and the limit that binds",
-            f"  {'R mm':>6} {'V_Jtcurv':>8} {'V_Jt':>13} {'V_An':>13} {'V_t':>13} {'V_tcy':>8} "
-            f"{'V_fr':>6} {'set pt':>7}  binds",
-            f"  {'':>6} {'eq. 11':>8} {'eq. 4/9':>13} {'eq. 2/8':>13} {'eq. 7':>13} {'eq. 6':>8} "
-            f"{'eq. 13':>6} {'eq. 12':>7}"]
+            f"  {'R mm':>6} {'V_Jtcurv':>9} {'V_Jt':>15} {'V_An':>15} {'V_t':>15} {'V_tcy':>9} "
+            f"{'V_fr':>8} {'set pt':>8}  binds",
+            f"  {'':>6} {'eq. 11':>9} {'eq. 4/9':>15} {'eq. 2/8':>15} {'eq. 7':>15} {'eq. 6':>9} "
+            f"{'eq. 13':>8} {'eq. 12':>8}"]
     for r in rows:
-        span = lambda lo, hi: f"{lo:.2f}..{hi:.2f}"  # noqa: E731
-        out.append(f"  {r.radius_mm:6g} {r.v_jtcurv_m_min:8.2f} {span(r.v_jt_min_m_min, r.v_jt_max_m_min):>13} "
-                   f"{span(r.v_an_min_m_min, r.v_an_max_m_min):>13} {span(r.v_t_min_m_min, r.v_t_max_m_min):>13} "
-                   f"{r.v_tcy_m_min:8.1f} {r.v_fr_line_m_min:6.2f} {r.setpoint_m_min:7.2f}  {r.binding}")
+        span = lambda lo, hi: f"{g(lo):.{d}f}..{g(hi):.{d}f}"  # noqa: E731
+        out.append(f"  {r.radius_mm:6g} {g(r.v_jtcurv_mm_min):9.{d}f} {span(r.v_jt_min_mm_min, r.v_jt_max_mm_min):>15} "
+                   f"{span(r.v_an_min_mm_min, r.v_an_max_mm_min):>15} {span(r.v_t_min_mm_min, r.v_t_max_mm_min):>15} "
+                   f"{g(r.v_tcy_mm_min):9.{max(d - 1, 0)}f} {g(r.v_fr_line_mm_min):8.{d}f} {g(r.setpoint_mm_min):8.{d}f}  {r.binding}")
     out.append("  (V_Jt, V_An, V_t: min..max over the direction; V_tcy: one full circle per block; "
                "V_fr: a line entering the arc, weakest tangent)")
     return "\n".join(out)

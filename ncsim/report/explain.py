@@ -31,7 +31,7 @@ from ncsim.plan.limits import path_limits
 from ncsim.machine import MachineSpec
 from ncsim.motion import FULL_MODEL, LIMIT_LABELS
 from ncsim.path import PathBuilder
-from ncsim.units import mm_s_to_m_min
+from ncsim.units import mm_s_to_mm_min
 
 DEFAULT_RADII_MM = (1.0, 2.5, 5.0, 10.0, 20.0, 30.0, 50.0, 100.0)
 DIRECTION_SAMPLES = 3600        # tangent directions over a turn (0.1 deg steps) for min/max
@@ -39,19 +39,19 @@ DIRECTION_SAMPLES = 3600        # tangent directions over a turn (0.1 deg steps)
 
 @dataclass(frozen=True, slots=True)
 class RadiusLimits:
-    """Steady feeds (m/min) on a circle of radius ``radius_mm`` in the XY plane."""
+    """Steady feeds (mm/min) on a circle of radius ``radius_mm`` in the XY plane."""
 
     radius_mm: float
-    v_jtcurv_m_min: float       # eq. 11
-    v_jt_min_m_min: float       # eq. 4 with eq. 9, min over the direction
-    v_jt_max_m_min: float
-    v_an_min_m_min: float       # eq. 2 with eq. 8
-    v_an_max_m_min: float
-    v_t_min_m_min: float        # eq. 7
-    v_t_max_m_min: float
-    v_tcy_m_min: float          # eq. 6, one full circle in one block
-    v_fr_line_m_min: float      # eq. 13, a line entering the arc tangentially (weakest tangent)
-    setpoint_m_min: float       # ncsim's set point (eq. 12 + guards) on a full circle
+    v_jtcurv_mm_min: float       # eq. 11
+    v_jt_min_mm_min: float       # eq. 4 with eq. 9, min over the direction
+    v_jt_max_mm_min: float
+    v_an_min_mm_min: float       # eq. 2 with eq. 8
+    v_an_max_mm_min: float
+    v_t_min_mm_min: float        # eq. 7
+    v_t_max_mm_min: float
+    v_tcy_mm_min: float          # eq. 6, one full circle in one block
+    v_fr_line_mm_min: float      # eq. 13, a line entering the arc tangentially (weakest tangent)
+    setpoint_mm_min: float       # ncsim's set point (eq. 12 + guards) on a full circle
     binding: str                # the limit that sets it (motion.Limit label)
 
     def as_dict(self) -> dict:
@@ -95,18 +95,18 @@ def radius_table(machine: MachineSpec, radii_mm=DEFAULT_RADII_MM) -> list[Radius
     ncu = machine.ncu
     j_tcurv = kin.ncu_tangential_jerk_mm_s3(ncu.curvilinear_jerk_mm_s3, ncu.tangential_jerk_share)
     setpoint, binding = full_circle_setpoints(machine, radii)
-    m = mm_s_to_m_min
+    m = mm_s_to_mm_min
     rows = []
     for k, r in enumerate(radii):
         rows.append(RadiusLimits(
             radius_mm=float(r),
-            v_jtcurv_m_min=float(m(kin.ncu_path_jerk_feed_limit_mm_s(j_tcurv, r))),
-            v_jt_min_m_min=float(m(kin.tangential_jerk_feed_limit_mm_s(j_min, r))),
-            v_jt_max_m_min=float(m(kin.tangential_jerk_feed_limit_mm_s(j_max, r))),
-            v_an_min_m_min=float(m(kin.normal_accel_feed_limit_mm_s(r, a_min))),
-            v_an_max_m_min=float(m(kin.normal_accel_feed_limit_mm_s(r, a_max))),
-            v_t_min_m_min=float(m(v_min)), v_t_max_m_min=float(m(v_max)),
-            v_tcy_m_min=float(m(kin.cycle_time_feed_limit_mm_s(2.0 * np.pi * r, ncu.ipo_cycle_s))),
-            v_fr_line_m_min=float(m(kin.transition_feed_mm_s(j_min, ncu.transition_time_s, 1.0 / r))),
-            setpoint_m_min=float(m(setpoint[k])), binding=str(binding[k])))
+            v_jtcurv_mm_min=float(m(kin.ncu_path_jerk_feed_limit_mm_s(j_tcurv, r))),
+            v_jt_min_mm_min=float(m(kin.tangential_jerk_feed_limit_mm_s(j_min, r))),
+            v_jt_max_mm_min=float(m(kin.tangential_jerk_feed_limit_mm_s(j_max, r))),
+            v_an_min_mm_min=float(m(kin.normal_accel_feed_limit_mm_s(r, a_min))),
+            v_an_max_mm_min=float(m(kin.normal_accel_feed_limit_mm_s(r, a_max))),
+            v_t_min_mm_min=float(m(v_min)), v_t_max_mm_min=float(m(v_max)),
+            v_tcy_mm_min=float(m(kin.cycle_time_feed_limit_mm_s(2.0 * np.pi * r, ncu.ipo_cycle_s))),
+            v_fr_line_mm_min=float(m(kin.transition_feed_mm_s(j_min, ncu.transition_time_s, 1.0 / r))),
+            setpoint_mm_min=float(m(setpoint[k])), binding=str(binding[k])))
     return rows

@@ -36,7 +36,7 @@ from matplotlib.patches import Patch
 from ncsim.errors import UsageError
 from ncsim.motion import LIMIT_LABELS, Limit
 from ncsim.motion import Trace
-from ncsim.units import mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_mm_min
+from ncsim.units import feed_from_mm_s, mm_min_to_mm_s, mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_mm_min
 
 FIGSIZE_IN = (16.0, 10.0)
 DPI = 100                        # so a PNG is 1600 x 1000 pixels
@@ -384,28 +384,31 @@ def run_figure(trace: Trace, *, motion=None, machine=None, title: str | None = N
 # The machine's limits against radius
 # ---------------------------------------------------------------------------------------------
 
-def explain_figure(rows, machine_name: str) -> Figure:
-    """Steady feed (m/min) each limit allows against arc radius (``explain.radius_table``)."""
+def explain_figure(rows, machine_name: str, feed_unit: str = "mm/min") -> Figure:
+    """Steady feed (in ``feed_unit``) each limit allows against arc radius
+    (``explain.radius_table``, whose feeds are in mm/min)."""
     r = np.array([row.radius_mm for row in rows])
-    col = lambda name: np.array([getattr(row, name) for row in rows])  # noqa: E731
+    def col(name):
+        mm_min = np.array([getattr(row, name) for row in rows])
+        return feed_from_mm_s(mm_min_to_mm_s(mm_min), feed_unit)
     fig = Figure(figsize=(10.0, 6.5), dpi=DPI)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
-    ax.fill_between(r, col("v_jt_min_m_min"), col("v_jt_max_m_min"), color="C1", alpha=0.25,
+    ax.fill_between(r, col("v_jt_min_mm_min"), col("v_jt_max_mm_min"), color="C1", alpha=0.25,
                     label="V_Jt axis jerk, eq. 4/9 (min–max over direction)")
-    ax.fill_between(r, col("v_an_min_m_min"), col("v_an_max_m_min"), color="C4", alpha=0.25,
+    ax.fill_between(r, col("v_an_min_mm_min"), col("v_an_max_mm_min"), color="C4", alpha=0.25,
                     label="V_An axis acceleration, eq. 2/8 (min–max)")
-    ax.fill_between(r, col("v_t_min_m_min"), col("v_t_max_m_min"), color="C0", alpha=0.2,
+    ax.fill_between(r, col("v_t_min_mm_min"), col("v_t_max_mm_min"), color="C0", alpha=0.2,
                     label="V_t axis velocity, eq. 7 (min–max)")
-    ax.plot(r, col("v_jtcurv_m_min"), color="C3", lw=1.5, zorder=4, label="V_Jtcurv NCU path jerk, eq. 11")
-    ax.plot(r, col("v_tcy_m_min"), color="C2", lw=1.2, ls="-.", label="V_tcy full circle per block, eq. 6")
-    ax.plot(r, col("v_fr_line_m_min"), color="C5", lw=1.2, ls=":", label="V_fr line → arc, eq. 13")
-    ax.plot(r, col("setpoint_m_min"), color="k", lw=4.0, alpha=0.45, zorder=3,
+    ax.plot(r, col("v_jtcurv_mm_min"), color="C3", lw=1.5, zorder=4, label="V_Jtcurv NCU path jerk, eq. 11")
+    ax.plot(r, col("v_tcy_mm_min"), color="C2", lw=1.2, ls="-.", label="V_tcy full circle per block, eq. 6")
+    ax.plot(r, col("v_fr_line_mm_min"), color="C5", lw=1.2, ls=":", label="V_fr line → arc, eq. 13")
+    ax.plot(r, col("setpoint_mm_min"), color="k", lw=4.0, alpha=0.45, zorder=3,
             label="set point planned by ncsim (eq. 12)")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("arc radius R (mm)")
-    ax.set_ylabel("steady feed (m/min)")
+    ax.set_ylabel(f"steady feed ({feed_unit})")
     ax.set_title(f"{machine_name}: steady feed each limit allows on an XY circle", fontsize=11)
     ax.grid(True, which="both", color="0.88", lw=0.5)
     ax.legend(loc="upper left", fontsize=8)
