@@ -15,7 +15,7 @@ from pathlib import Path as FsPath
 import click
 
 from ncsim.errors import UsageError
-from ncsim.units import ms_to_s
+from ncsim.units import FEED_UNITS, ms_to_s
 
 
 def _pairs(values, what: str) -> dict:
@@ -56,12 +56,17 @@ def _pairs(values, what: str) -> dict:
 @click.option("--plot-format", type=click.Choice(["png", "svg"]), default="png", show_default=True)
 @click.option("--write-machine", "machine_out", default=None, type=click.Path(dir_okay=False),
               help="Write the machine file corrected with the fitted parameters.")
+@click.option("--feed-unit", type=click.Choice(FEED_UNITS), default="mm/min", show_default=True,
+              help="Feeds of the text output in this unit (the JSON keeps the unit in its keys).")
 def gap(programs, machine_name, measured_file, fmt, columns, units, sample_period_ms, base,
-        effects, no_combine, as_json, plot_prefix, plot_format, machine_out) -> None:
+        effects, no_combine, as_json, plot_prefix, plot_format, machine_out, feed_unit) -> None:
     """Diagnose the gap between PROGRAM(s) simulated on a machine and a measurement: where it is,
     which unmodelled effect causes it, and how much of it each effect closes."""
     from ncsim.gap.pipeline import diagnose
 
+    if as_json and feed_unit != "mm/min":
+        raise UsageError("--feed-unit applies to the text output; the JSON keeps the unit in "
+                         "its key names")
     if sample_period_ms is not None and not sample_period_ms > 0:
         raise UsageError(f"--sample-period-ms must be positive, got {sample_period_ms:g}")
     result = diagnose(programs, measured_file, machine_name, fmt=fmt,
@@ -82,7 +87,7 @@ def gap(programs, machine_name, measured_file, fmt, columns, units, sample_perio
     if as_json:
         click.echo(json.dumps(_finite(out), indent=1, default=_json_default, allow_nan=False))
         return
-    click.echo(result.text(), nl=False)
+    click.echo(result.text(feed_unit), nl=False)
     for p in plots:
         click.echo(f"wrote {p}")
     if machine_out:

@@ -62,16 +62,17 @@ class GapResult:
             return {"diagnosis": self.planner.as_dict()}
         return {"servo_part": self.servo.as_dict()}
 
-    def text(self) -> str:
+    def text(self, feed_unit: str = "mm/min") -> str:
+        """The diagnosis as text, every feed in ``feed_unit`` (``units.FEED_UNITS``)."""
         from ncsim.gap.report import format_servo, format_summary, format_trace
         if self.kind == "summary":
-            return format_summary(self.planner)
+            return format_summary(self.planner, feed_unit)
         parts = []
         if self.planner is not None:
             head = "planner part (ncsim against the command): " if self.kind == "split" else ""
-            parts.append(head + format_trace(self.planner))
+            parts.append(head + format_trace(self.planner, feed_unit))
         if self.servo is not None:
-            parts.append(format_servo(self.servo))
+            parts.append(format_servo(self.servo, feed_unit))
         return "\n".join(parts)
 
     def plot(self, prefix: str, fmt: str = "png") -> list[str]:

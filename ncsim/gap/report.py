@@ -9,7 +9,19 @@ from __future__ import annotations
 import math
 
 from ncsim.gap.effects import EFFECTS
-from ncsim.units import mm_to_um, s_to_ms
+from ncsim.units import feed_from_mm_s, mm_to_um, s_to_ms
+
+#: decimals of a feed error per unit: the text prints every feed in one unit (mm/min unless
+#: ``feed_unit`` says otherwise); the JSON keeps the unit in its key names (``_mm_s``)
+FEED_ERROR_DECIMALS = {"mm/min": 1, "m/min": 4, "mm/s": 3, "in/min": 2}
+
+
+def _f(v_mm_s, unit: str) -> float:
+    return feed_from_mm_s(v_mm_s, unit)
+
+
+def _fd(unit: str) -> int:
+    return FEED_ERROR_DECIMALS.get(unit, 3)
 
 
 def _params(params: dict) -> str:
@@ -37,20 +49,21 @@ def _pct(v: float) -> str:
     return "   n/a" if v is None or not math.isfinite(v) else f"{v:6.1f} %"
 
 
-def format_trace(d) -> str:
-    """A :class:`ncsim.gap.diagnose.Diagnosis` as text."""
+def format_trace(d, feed_unit: str = "mm/min") -> str:
+    """A :class:`ncsim.gap.diagnose.Diagnosis` as text, feeds in ``feed_unit``."""
+    u, k = feed_unit, _fd(feed_unit)
     g = d.gap_before
     al = d.alignment
     lines = [f"gap diagnosis: {d.program or '<path>'} against {d.source}, base model '{d.base}'",
              f"  alignment: time shift {al['time_shift_s']:.4f} s ({al['shift_method']}), "
              f"zero offset ({', '.join(f'{v:.4f}' for v in al['offset_mm'])}) mm "
              f"({al['offset_method']}); position noise {mm_to_um(d.scales.noise_mm):.2f} um",
-             f"  base gap {g.gap:.3g}: feed {g.feed_rms_mm_s:.3f} mm/s rms, time {g.time_rms_ms:.2f} ms rms, "
+             f"  base gap {g.gap:.3g}: feed {_f(g.feed_rms_mm_s, u):.{k}f} {u} rms, time {g.time_rms_ms:.2f} ms rms, "
              f"cycle time {g.cycle_time_error_s:+.4f} s, contour {g.contour_rms_um:.2f} um rms "
-             f"(scales: feed {d.scales.feed_mm_s:.3g} mm/s, time {s_to_ms(d.scales.time_s):.3g} ms, "
+             f"(scales: feed {_f(d.scales.feed_mm_s, u):.3g} {u}, time {s_to_ms(d.scales.time_s):.3g} ms, "
              f"contour {mm_to_um(d.scales.contour_mm):.3g} um)", ""]
-    lines += _fit_table(d.fits, d.combined)
-    lines += _localisation(d.localisation_before, "where the base model departs")
+    lines += _fit_table(d.fits, d.combined, u)
+    lines += _localisation(d.localisation_before, "where the base model departs", u)
     if d.localisation_after:
         lines += _circles(d.localisation_after, "after correction")
     for n in d.notes:
@@ -58,8 +71,9 @@ def format_trace(d) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _fit_table(fits, combined) -> list[str]:
-    head = (f"{'rank':>4} {'effect':<15} {'shrink':>8} {'gap':>9} {'feed mm/s':>9} {'time ms':>8} "
+def _fit_table(fits, combined, u: str = "mm/min") -> list[str]:
+    k = _fd(u)
+    head = (f"{'rank':>4} {'effect':<15} {'shrink':>8} {'gap':>9} {'feed ' + u:>11} {'time ms':>8} "
             f"{'cycle s':>8} {'contour um':>10}  fitted parameters")
     lines = [head]
     rows = list(enumerate(fits, 1)) + ([("all", combined)] if combined is not None else [])
@@ -67,7 +81,7 @@ def _fit_table(fits, combined) -> list[str]:
         a = f.gap_after
         name = f.effect if rank != "all" else "combined"
         lines.append(f"{rank!s:>4} {name:<15} {_pct(f.shrink_percent):>8} {a.gap:9.3g} "
-                     f"{a.feed_rms_mm_s:9.3f} {a.time_rms_ms:8.2f} {a.cycle_time_error_s:+8.4f} "
+                     f"{_f(a.feed_rms_mm_s, u):11.{k}f} {a.time_rms_ms:8.2f} {a.cycle_time_error_s:+8.4f} "
                      f"{a.contour_rms_um:10.2f}  {_shown_params(f)}"
                      + ("" if f.added else "  (re-fitted)"))
     if combined is not None:
@@ -75,18 +89,19 @@ def _fit_table(fits, combined) -> list[str]:
     return lines
 
 
-def _localisation(loc: dict, title: str) -> list[str]:
+def _localisation(loc: dict, title: str, u: str = "mm/min") -> list[str]:
     if not loc:
         return []
+    k = _fd(u)
     lines = ["", f"{title} (blocks with the largest gap):",
-             f"  {'line':>6} {'block':>6} {'kind':<5} {'feed err mm/s':>13} {'duration err ms':>15} "
+             f"  {'line':>6} {'block':>6} {'kind':<5} {'feed err ' + u:>15} {'duration err ms':>15} "
              f"{'contour rms um':>14}"]
     for b in loc["blocks"]:
-        lines.append(f"  {b['line']:>6} {b['block']:>6} {b['kind']:<5} {b['feed_error_rms_mm_s']:13.3f} "
+        lines.append(f"  {b['line']:>6} {b['block']:>6} {b['kind']:<5} {_f(b['feed_error_rms_mm_s'], u):15.{k}f} "
                      f"{b['duration_error_ms']:15.2f} {b['contour_rms_um']:14.2f}")
     lines += ["  per phase:"]
     for p in loc["phases"]:
-        lines.append(f"    {p['phase']:<10} n={p['n']:<6} feed err {p['feed_error_rms_mm_s']:.3f} mm/s rms, "
+        lines.append(f"    {p['phase']:<10} n={p['n']:<6} feed err {_f(p['feed_error_rms_mm_s'], u):.{k}f} {u} rms, "
                      f"contour {p['contour_rms_um']:.2f} um rms, mean time err {p['time_error_mean_ms']:+.2f} ms")
     arcs = [a for a in loc.get("arcs", []) if a["sectors"]]
     if arcs:
@@ -96,7 +111,7 @@ def _localisation(loc: dict, title: str) -> list[str]:
             sec = max(a["sectors"], key=lambda x: abs(x["gap_um"] or 0.0))
             fsec = max(a["sectors"], key=lambda x: abs(x["feed_error_mm_s"] or 0.0))
             lines.append(f"    line {a['line']} R {a['radius_mm']:g}: radial {sec['gap_um'] or 0:+.1f} um at "
-                         f"{sec['angle_deg']:.0f} deg; feed {fsec['feed_error_mm_s'] or 0:+.2f} mm/s at "
+                         f"{sec['angle_deg']:.0f} deg; feed {_f(fsec['feed_error_mm_s'] or 0, u):+.{k}f} {u} at "
                          f"{fsec['angle_deg']:.0f} deg (time {fsec['time_error_ms'] or 0:+.1f} ms)")
         if len(arcs) > 8:
             lines.append(f"    ... {len(arcs) - 8} more arcs (--json)")
@@ -120,8 +135,8 @@ _SUMMARY_UNITS = {"steady_feed": "mm/s", "max_feed_below": "mm/s", "normal_accel
                   "tangential_jerk": "mm/s^3", "G": "um", "Fmax": "um", "Fmin": "um"}
 
 
-def format_summary(d) -> str:
-    """A :class:`ncsim.gap.published.SummaryDiagnosis` as text."""
+def format_summary(d, feed_unit: str = "mm/min") -> str:
+    """A :class:`ncsim.gap.published.SummaryDiagnosis` as text, feeds in ``feed_unit``."""
     from ncsim.gap.diagnose import shrink_percent
     g = d.gap_before
     lines = [f"gap diagnosis against published values: {d.source}, base model '{d.base}'",
@@ -158,6 +173,9 @@ def format_summary(d) -> str:
         q = r[1]
         if q == "reaches_programmed":
             meas, model = ("yes" if r[2] else "no"), f"{100 * r[3]:.1f} % of F"
+        elif _SUMMARY_UNITS.get(q) == "mm/s":      # a feed: in the output's feed unit
+            k = max(_fd(feed_unit) - 1, 0)
+            meas, model = (f"{_f(r[2], feed_unit):.{k}f} {feed_unit}", f"{_f(r[3], feed_unit):.{k}f} {feed_unit}")
         else:
             unit = _SUMMARY_UNITS.get(q, "")
             meas, model = f"{r[2]:.4g} {unit}", f"{r[3]:.4g} {unit}"
@@ -165,17 +183,20 @@ def format_summary(d) -> str:
     return "\n".join(lines) + "\n"
 
 
-def format_servo(d) -> str:
-    """A :class:`ncsim.gap.servo_part.ServoDiagnosis` as text."""
+def format_servo(d, feed_unit: str = "mm/min") -> str:
+    """A :class:`ncsim.gap.servo_part.ServoDiagnosis` as text (velocities in ``feed_unit``)."""
     signal = {"velocity": "velocities", "position": "positions"}.get(d.signal, d.signal)
+    velocity = d.signal == "velocity"
+    rms = _f(d.gap_before.rms, feed_unit) if velocity else d.gap_before.rms
     lines = [f"servo part (commanded against actual {signal}): {d.source}",
-             f"  command as actual: gap {d.gap_before.gap:.3g}, rms {d.gap_before.rms:.4g} "
-             f"{'mm/s' if d.signal == 'velocity' else 'mm'} over {d.gap_before.n_samples} values",
+             f"  command as actual: gap {d.gap_before.gap:.3g}, rms {rms:.4g} "
+             f"{feed_unit if velocity else 'mm'} over {d.gap_before.n_samples} values",
              f"{'rank':>4} {'effect':<12} {'shrink':>8} {'gap':>8} {'rms':>9} {'lag ms':>7}  fitted parameters"]
     for i, f in enumerate(d.fits, 1):
         lag = "" if f.lag_s is None else f"{s_to_ms(f.lag_s):7.2f}"
+        rms = _f(f.gap_after.rms, feed_unit) if velocity else f.gap_after.rms
         lines.append(f"{i:>4} {f.effect:<12} {_pct(f.shrink_percent):>8} {f.gap_after.gap:8.3g} "
-                     f"{f.gap_after.rms:9.4g} {lag:>7}  {_params(f.params)}")
+                     f"{rms:9.4g} {lag:>7}  {_params(f.params)}")
     le = d.lag_estimate
     if le is not None and math.isfinite(le.pooled_ramp_delay_s):
         lines.append(f"  independent estimate (lag.estimate_lag): ramp delay "
