@@ -13,7 +13,7 @@ from ncsim.cli.main import cli
 FULL_PANELS = ("feed_time", "accel", "jerk", "xy_path", "feed_path")
 YLABELS = {"feed_time": "feed (mm/min)", "feed_path": "feed (mm/min)", "xy_path": "Y (mm)",
            "accel": "acceleration (m/s²)", "jerk": "jerk (m/s³)"}
-XLABELS = {"feed_time": "time (s)", "feed_path": "path length s (mm)", "xy_path": "X (mm)",
+XLABELS = {"feed_time": "time (s)", "feed_path": "cutting path length (mm)", "xy_path": "X (mm)",
            "accel": "time (s)", "jerk": "time (s)"}
 
 
@@ -45,7 +45,8 @@ def test_figure_has_five_labelled_panels_limit_legend_and_boundaries(bore_sim, b
     assert result.panels == FULL_PANELS and result.missing == {}
     assert len(fig.axes) == 6                                   # 5 panels + the feed colorbar
     by_title = _panel_axes(fig)
-    titles = {"feed against time": "feed_time", "feed along the path": "feed_path",
+    titles = {"feed against time": "feed_time",
+              "feed along the cutting path (rapids take no length)": "feed_path",
               "XY path coloured by feed": "xy_path", "acceleration": "accel", "jerk": "jerk"}
     assert set(by_title) == set(titles)
     for title, panel in titles.items():
@@ -53,10 +54,10 @@ def test_figure_has_five_labelled_panels_limit_legend_and_boundaries(bore_sim, b
         assert ax.get_ylabel() == YLABELS[panel] and ax.get_xlabel() == XLABELS[panel]
     colorbar = next(ax for ax in fig.axes if not ax.get_title(loc="left"))
     assert colorbar.get_ylabel() == "reached feed (mm/min)"
-    # legend of the feed panel: programmed, set point, reached, block boundary
+    # legend of the feed panel: programmed, set point, rapids, reached, block boundary
     feed = by_title["feed against time"]
     assert [t.get_text() for t in feed.get_legend().get_texts()] == [
-        "programmed F", "set point (eq. 12)", "reached feed", "block boundary"]
+        "programmed F", "set point (eq. 12)", "rapid (G0)", "reached feed", "block boundary"]
     # the figure legend names the limits shading the background; the bore's circle is held by
     # the NCU path jerk (paper: 2.01 m/min on R 2.5) and its arcs meet at transitions (eq. 13)
     limits = [t.get_text() for t in fig.legends[0].get_texts()]

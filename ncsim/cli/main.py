@@ -413,23 +413,34 @@ def _crosscheck_text(c: dict) -> str:
               help="Figure file: .png, .svg or .pdf.")
 @click.option("--dt", "dt_s", type=click.FloatRange(min=0, min_open=True), default=None,
               metavar="SECONDS",
-              help="Sampling period [default: cycle time / 20000, at most the IPO cycle; "
+              help="Sampling period [default: the time shown / 20000, at most the IPO cycle; "
                    "traces over 200,000 samples are thinned for drawing].")
+@click.option("--rapids", type=click.Choice(["show", "hide"]), default="show", show_default=True,
+              help="Rapids (G0) thin and grey over the cutting moves, or hidden; the scales "
+                   "come from the cutting moves either way.")
+@click.option("--range", "range_text", default=None, metavar="A:B",
+              help="Zoom to source lines (120:340), N numbers (N1200:N3400) or seconds "
+                   "(12.5s:20s); a side may stay open (120:), 'all' is the whole run.")
+@feed_unit_option("Feeds of the figure")
 @click.option("--title", default=None, help="Figure title [default: program and machine].")
-def plot_cmd(program, machine_name, trace_file, output, dt_s, title, **params):
-    """Plot a run: feed against time and along the path (shaded by the limit holding it),
-    the XY path coloured by feed, acceleration and jerk.
+def plot_cmd(program, machine_name, trace_file, output, dt_s, rapids, range_text, feed_unit,
+             title, **params):
+    """Plot a run for a machinist: feed against time and along the cutting path (shaded by
+    the limit holding it), the XY path coloured by feed and framed on the cutting moves,
+    acceleration and jerk. Rapids are thin and grey (or hidden); --range zooms.
 
     Either PROGRAM with --machine, or --trace FILE.csv (fewer panels if the CSV lacks columns).
     """
     from ncsim.motion import FULL_MODEL
+    from ncsim.report import view
     from ncsim.report.plot import check_figure_file
 
     options = model_options(params)
     check_figure_file(output)
+    spec = view.parse_range(range_text) if range_text is not None else None
     if (program is None) == (trace_file is None):
         raise UsageError("give either a PROGRAM (with --machine) or --trace FILE.csv")
-    motion = machine = None
+    motion = machine = numbers = outline = None
     if trace_file and (params["setup_file"] or options != FULL_MODEL or dt_s is not None):
         raise UsageError("--setup, --dt and the model switches apply to a PROGRAM, not to --trace")
     if trace_file:
@@ -437,25 +448,34 @@ def plot_cmd(program, machine_name, trace_file, output, dt_s, title, **params):
         from ncsim.machine import load_machine
         trace = trace_from_columns(read_trace_csv(trace_file))
         machine = load_machine(machine_name) if machine_name else None
+        window = view.window_for(spec, trace)
         head = title or os.path.basename(trace_file) + (f" on {machine.name}" if machine else "")
     else:
         if not machine_name:
             raise UsageError("--machine is required with a PROGRAM (e.g. --machine mikron)")
-        from ncsim.plan.sample import sample_motion
+        import numpy as np
+
+        from ncsim.plan.sample import sample_motion, time_grid_s
         from ncsim.pipeline import STAGES, simulate
         progress = Progress([*STAGES, "sample", "draw"])
         try:
             sim = simulate(program, machine_name, options, setup_offsets=params["setup_file"],
-                       progress=progress)
+                           progress=progress)
+            numbers = view.block_numbers(sim.motion.path)
+            window = view.window_for(spec, None, sim.motion, numbers)
             with progress.stage("sample"):
-                trace = sample_motion(sim.motion, dt_s if dt_s else _plot_dt_s(sim))
+                t0, t1 = (0.0, sim.cycle_time_s) if window is None else (window.t0_s, window.t1_s)
+                dt = dt_s if dt_s else _plot_dt_s(sim, t1 - t0)
+                trace = sample_motion(sim.motion, t_s=np.minimum(t0 + time_grid_s(t1 - t0, dt), t1))
+                outline = None if window is None else view.part_outline_xy(sim.motion)
         finally:
             progress.close()
         _echo_warnings(sim)
         motion, machine = sim.motion, sim.machine
         head = title or f"{os.path.basename(program)} on {machine.name}"
     from ncsim.report.plot import run_figure, save_figure
-    result = run_figure(trace, motion=motion, machine=machine, title=head)
+    result = run_figure(trace, motion=motion, machine=machine, title=head, rapids=rapids,
+                        window=window, feed_unit=feed_unit, numbers=numbers, outline_xy=outline)
     save_figure(result.figure, output)
     click.echo(f"wrote {output}: panels {', '.join(result.panels)}")
     if result.missing:
@@ -466,11 +486,11 @@ def plot_cmd(program, machine_name, trace_file, output, dt_s, title, **params):
 PLOT_SAMPLES = 20_000
 
 
-def _plot_dt_s(sim) -> float:
-    """Fine enough to show each jerk phase on short programs (~20,000 samples), and never
+def _plot_dt_s(sim, shown_s: float | None = None) -> float:
+    """Fine enough to show each jerk phase of the time shown (~20,000 samples), and never
     coarser than the IPO cycle (``plot.run_figure`` thins very long traces for drawing)."""
     ipo = sim.machine.ncu.ipo_cycle_s
-    total = sim.cycle_time_s
+    total = sim.cycle_time_s if shown_s is None else shown_s
     return min(ipo, total / PLOT_SAMPLES) if total > 0 else ipo
 
 

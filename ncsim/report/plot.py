@@ -1,23 +1,32 @@
 """Figures: a simulated run (``ncsim plot``) and a machine's feed limits (``ncsim explain --plot``).
 
 :func:`run_figure` draws a :class:`~ncsim.motion.Trace` (plus the planned
-:class:`~ncsim.motion.Motion` when there is one) as up to five panels:
+:class:`~ncsim.motion.Motion` when there is one) as up to five panels, built for a machinist
+reading a real program: the cutting moves set every scale, rapids are thin and grey (or hidden),
+and what is shown comes from ``report.view``:
 
-1. ``feed_time``  feed (mm/min) against time: programmed F, set point (eq. 12), reached feed;
-   the background is shaded by the limit holding the feed (``motion.Limit`` labels, legend at
-   the top of the figure); thin grey vertical lines mark block boundaries (with the source
-   line of each block when there are few);
-2. ``feed_path``  the same feeds against the path length s (mm), same shading and boundaries;
-3. ``xy_path``    the XY projection of the path coloured by the reached feed (colorbar in
-   mm/min, equal aspect), block boundaries as dots;
+1. ``feed_time``  feed against time: programmed F, set point (eq. 12), reached feed of the
+   cutting moves; the axis goes to 1.15 x the largest programmed cutting feed (rapids run off
+   the top, and the panel says how fast they go); the background is shaded by the limit
+   holding the feed (``motion.Limit`` labels, legend at the top), grey where a rapid runs;
+   thin grey vertical lines mark block boundaries, labelled by N number (or source line) when
+   there are few;
+2. ``feed_path``  the same feeds against the *cutting* path length (rapids take no length);
+3. ``xy_path``    the XY projection coloured by the reached feed on the feed axis's scale, the
+   view framed on the cutting moves (equal aspect), rapids as thin grey lines, block
+   boundaries as dots;
 4. ``accel``      tangential and per-axis acceleration (m/s^2) against time, with the axes'
    limits dashed (when the machine is known);
-5. ``jerk``       tangential and per-axis jerk (m/s^3) against time, limits dashed likewise.
+5. ``jerk``       tangential and per-axis jerk (m/s^3) likewise, on a robust scale: values far
+   beyond the machine's jerk (BRISK blocks) are clipped at the edge and marked there, and a
+   note says why an axis jerk may exceed its limit (the paper's eq. 10 rule,
+   ``view.jerk_notes``).
 
-A trace read from CSV may lack columns; the panels that need them are left out and
-:attr:`RunFigure.missing` says which columns each one needs. Only matplotlib's object API and
-the Agg canvas are used (no pyplot, no global state), and files are written without dates, so
-the same input gives the same file.
+Feeds are drawn in one unit (``feed_unit``, mm/min by default). A window (``view.Window``,
+from ``--range``) zooms every panel to a time span. A trace read from CSV may lack columns;
+the panels that need them are left out and :attr:`RunFigure.missing` says which columns each
+one needs. Only matplotlib's object API and the Agg canvas are used (no pyplot, no global
+state), and files are written without dates, so the same input gives the same file.
 """
 from __future__ import annotations
 
@@ -28,6 +37,7 @@ import numpy as np
 from matplotlib import rc_context
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection, PolyCollection
+from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from matplotlib.gridspec import GridSpec
 from matplotlib.lines import Line2D
@@ -36,14 +46,20 @@ from matplotlib.patches import Patch
 from ncsim.errors import UsageError
 from ncsim.motion import LIMIT_LABELS, Limit
 from ncsim.motion import Trace
-from ncsim.units import feed_from_mm_s, mm_min_to_mm_s, mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_mm_min
+from ncsim.report import view
+from ncsim.units import feed_from_mm_s, mm_min_to_mm_s, mm_s2_to_m_s2, mm_s3_to_m_s3
 
 FIGSIZE_IN = (16.0, 10.0)
 DPI = 100                        # so a PNG is 1600 x 1000 pixels
 MAX_BOUNDARIES = 400             # block boundaries drawn at most (else a note says so)
-MAX_LINE_LABELS = 30             # source lines written at the boundaries at most
+MAX_LINE_LABELS = 30             # labels written at the boundaries at most
+DENSE_BLOCKS = 100               # more blocks in view: thinner lines
 MAX_PLOT_SAMPLES = 200_000       # longer traces are thinned (every k-th sample) for drawing
 FORMATS = ("png", "svg", "pdf")
+RAPID_COLOR = "0.55"             # rapids: thin and grey
+RAPID_SHADE = "#e4e4e4"          # background where a rapid runs
+RAPID_CODE = -1                  # limit code of a rapid sample in the shading
+HIDDEN_CODE = -2                 # not shaded (a hidden rapid)
 
 PANELS = ("feed_time", "feed_path", "xy_path", "accel", "jerk")
 PANEL_YLABELS = {
@@ -88,6 +104,8 @@ class RunFigure:
     panels: tuple[str, ...]          # drawn, in PANELS order
     missing: dict[str, str]          # panel left out -> the columns it needs
     notes: tuple[str, ...]           # anything else the reader should know (thinning...)
+    axes: dict | None = None         # panel name -> its matplotlib Axes (for tests and callers)
+    clipped: dict | None = None      # panel -> number of samples clipped at its edge
 
 
 # ---------------------------------------------------------------------------------------------
@@ -128,7 +146,8 @@ def _runs(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _shade_limits(ax, x: np.ndarray, limit: np.ndarray) -> set[int]:
-    """Shade the background of ``ax`` by ``limit`` code over ``x``; returns the codes drawn.
+    """Shade the background of ``ax`` by ``limit`` code over ``x``; returns the codes drawn
+    (RAPID_CODE is shaded grey, HIDDEN_CODE not at all).
 
     A run of samples [i, j) is shaded from x[i] to x[j] (x[-1] for the last run)."""
     start, end, code = _runs(limit)
@@ -139,26 +158,29 @@ def _shade_limits(ax, x: np.ndarray, limit: np.ndarray) -> set[int]:
     drawn = set()
     for c in np.unique(code):
         sel = (code == c) & (x_hi > x_lo)
-        if not np.any(sel):
+        if int(c) == HIDDEN_CODE or not np.any(sel):
             continue
         verts = [((a, 0.0), (a, 1.0), (b, 1.0), (b, 0.0)) for a, b in zip(x_lo[sel], x_hi[sel])]
-        label = LIMIT_LABELS[int(c)] if 0 <= int(c) < len(LIMIT_LABELS) else "none"
-        coll = PolyCollection(verts, facecolors=LIMIT_COLORS.get(label, "#ffffff"),
-                              edgecolors="none", alpha=0.55, zorder=0,
+        if int(c) == RAPID_CODE:
+            color = RAPID_SHADE
+        else:
+            label = LIMIT_LABELS[int(c)] if 0 <= int(c) < len(LIMIT_LABELS) else "none"
+            color = LIMIT_COLORS.get(label, "#ffffff")
+        coll = PolyCollection(verts, facecolors=color, edgecolors="none", alpha=0.55, zorder=0,
                               transform=ax.get_xaxis_transform())
         ax.add_collection(coll, autolim=False)
         drawn.add(int(c))
     return drawn
 
 
-def _boundaries(ax, x: np.ndarray, lines: np.ndarray | None, label_lines: bool) -> None:
+def _boundaries(ax, x: np.ndarray, labels: list[str] | None) -> None:
     if len(x) == 0:
         return
     ax.vlines(x, 0.0, 1.0, transform=ax.get_xaxis_transform(), colors="0.45", linewidths=0.6,
               alpha=0.7, zorder=1)
-    if label_lines and lines is not None and len(x) <= MAX_LINE_LABELS:
-        for xi, line in zip(x, lines):
-            ax.text(xi, 0.99, f" line {int(line)}", transform=ax.get_xaxis_transform(),
+    if labels is not None and len(x) <= MAX_LINE_LABELS:
+        for xi, text in zip(x, labels):
+            ax.text(xi, 0.99, f" {text}", transform=ax.get_xaxis_transform(),
                     rotation=90, va="top", ha="left", fontsize=7, color="0.3", zorder=5)
 
 
@@ -170,29 +192,46 @@ def _legend_above(ax, handles=None) -> None:
               frameon=False, borderaxespad=0.1, handlelength=1.8, columnspacing=1.0, **kwargs)
 
 
-def _thin(trace: Trace, max_samples: int) -> tuple[Trace, int]:
+def _thin(trace: Trace, max_samples: int) -> tuple[np.ndarray, int]:
+    """Indices of the samples drawn (every k-th, and the last), and k."""
     if len(trace) <= max_samples:
-        return trace, 1
+        return np.arange(len(trace)), 1
     step = int(np.ceil(len(trace) / max_samples))
     idx = np.arange(0, len(trace), step)
     if idx[-1] != len(trace) - 1:
         idx = np.append(idx, len(trace) - 1)
-    return trace.select(idx), step
+    return idx, step
 
 
-def _block_starts(trace: Trace, motion) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Block boundaries: times, path lengths, XY points and source lines of block starts
-    (from the motion when there is one, else where the trace's block column changes)."""
+@dataclass(frozen=True)
+class _Bounds:
+    """Block starts inside the view: time, cutting length, XY, label, and whether it cuts."""
+    t: np.ndarray
+    s_cut: np.ndarray
+    xy: np.ndarray
+    labels: list[str]
+    cutting: np.ndarray
+
+
+def _block_starts(trace: Trace, motion, numbers, s_cut: np.ndarray) -> _Bounds:
+    """Block boundaries inside the trace's time span, from the motion when there is one, else
+    where the trace's block column changes. The first block of the view has no boundary."""
     if motion is not None and motion.path.n:
         path = motion.path
-        return (np.asarray(motion.t_start_s), np.asarray(path.s_start_mm),
-                np.asarray(path.start_mm[:, :2]), np.asarray(path.line))
+        t = np.asarray(motion.t_start_s)
+        keep = (t > trace.t_s[0]) & (t < trace.t_s[-1]) if len(trace) else np.zeros(len(t), bool)
+        knots = np.concatenate([[0.0], np.cumsum(np.where(path.rapid, 0.0, path.length_mm))])
+        lines = path.line[keep]
+        return _Bounds(t[keep], knots[:-1][keep], np.asarray(path.start_mm[keep, :2]),
+                       view.block_labels(lines, None if numbers is None else numbers[keep]),
+                       ~path.rapid[keep])
     block = trace.block
     if len(block) == 0 or np.all(block < 0):
         empty = np.zeros(0)
-        return empty, empty, np.zeros((0, 2)), empty
-    i = np.concatenate([[0], np.flatnonzero(np.diff(block) != 0) + 1])
-    return trace.t_s[i], trace.s_mm[i], trace.pos_mm[i, :2], trace.line[i]
+        return _Bounds(empty, empty, np.zeros((0, 2)), [], np.zeros(0, bool))
+    i = np.flatnonzero(np.diff(block) != 0) + 1
+    return _Bounds(trace.t_s[i], s_cut[i], trace.pos_mm[i, :2], view.block_labels(trace.line[i], None),
+                   ~view.rapid_mask(trace)[i])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -206,7 +245,7 @@ def _layout(fig: Figure, panels: list[str]) -> dict[str, object]:
     rows = 6
     cols = 2 if left and right else 1
     gs = GridSpec(rows, cols, figure=fig, width_ratios=[3, 2] if cols == 2 else [1],
-                  left=0.055, right=0.945, bottom=0.06, top=0.85, hspace=1.5, wspace=0.16)
+                  left=0.055, right=0.945, bottom=0.095, top=0.85, hspace=1.5, wspace=0.16)
     axes: dict[str, object] = {}
     share = None
     for column, names in ((0, left), (cols - 1, right)):
@@ -222,162 +261,311 @@ def _layout(fig: Figure, panels: list[str]) -> dict[str, object]:
     return axes
 
 
-def _feed_lines(ax, x, trace: Trace, motion) -> list:
+@dataclass(frozen=True)
+class _Feeds:
+    """The feed curves in the figure's unit, rapids apart."""
+    programmed: np.ndarray
+    setpoint: np.ndarray
+    cutting: np.ndarray       # reached feed, NaN on rapids
+    rapid: np.ndarray         # reached feed, NaN on cutting moves
+    top: float                # feed axis top
+    rapid_max: float          # fastest rapid in view (0 if none)
+
+
+def _feeds(trace: Trace, rapid: np.ndarray, unit: str) -> _Feeds:
+    def conv(v):
+        v = feed_from_mm_s(np.asarray(v, dtype=np.float64), unit)
+        return np.where(np.isfinite(v), v, np.nan)
+    reached = conv(trace.feed_mm_s)
+    rapid_feed = np.where(rapid, reached, np.nan)
+    return _Feeds(programmed=np.where(rapid, np.nan, conv(trace.programmed_mm_s)),
+                  setpoint=np.where(rapid, np.nan, conv(trace.setpoint_mm_s)),
+                  cutting=np.where(rapid, np.nan, reached), rapid=rapid_feed,
+                  top=float(feed_from_mm_s(view.feed_top_mm_s(trace, ~rapid), unit)),
+                  rapid_max=float(np.nanmax(rapid_feed)) if np.any(rapid & np.isfinite(reached)) else 0.0)
+
+
+def _feed_lines(ax, x, f: _Feeds, show_rapids: bool, unit: str, lw: float = 1.0) -> list:
     handles = []
-    prog = mm_s_to_mm_min(trace.programmed_mm_s)
-    prog = np.where(np.isfinite(prog), prog, np.nan)      # rapids have no programmed feed
-    if _finite_any(prog):
-        handles += ax.plot(x, prog, color="0.25", lw=1.2, ls=":", label="programmed F")
-    setpoint = mm_s_to_mm_min(trace.setpoint_mm_s)
-    setpoint = np.where(np.isfinite(setpoint), setpoint, np.nan)
-    if _finite_any(setpoint):
-        handles += ax.plot(x, setpoint, color="C3", lw=1.2, ls="--", label="set point (eq. 12)")
-    reached = mm_s_to_mm_min(trace.feed_mm_s)
-    handles += ax.plot(x, reached, color="k", lw=1.4, label="reached feed")
-    # scale to the reached and programmed feeds: a rapid's set point (the axis velocity) would
-    # squash the feed moves; it runs off the top instead
-    top = np.nanmax(np.concatenate([reached[np.isfinite(reached)], prog[np.isfinite(prog)], [1.0]]))
-    ax.set_ylim(0.0, 1.15 * top)
+    if _finite_any(f.programmed):
+        handles += ax.plot(x, f.programmed, color="0.25", lw=1.2, ls=":", label="programmed F")
+    if _finite_any(f.setpoint):
+        handles += ax.plot(x, f.setpoint, color="C3", lw=1.2 * lw, ls="--", label="set point (eq. 12)")
+    if show_rapids and _finite_any(f.rapid):
+        handles += ax.plot(x, f.rapid, color=RAPID_COLOR, lw=0.7, label="rapid (G0)")
+    handles += ax.plot(x, f.cutting, color="k", lw=1.4 * lw, label="reached feed")
+    ax.set_ylim(0.0, f.top)
+    if show_rapids and f.rapid_max > f.top:
+        digits = 0 if unit in ("mm/min",) else 2
+        ax.text(0.995, 0.97, f"rapids up to {f.rapid_max:.{digits}f} {unit}, off scale",
+                transform=ax.transAxes, ha="right", va="top", fontsize=7.5, color="0.35", zorder=6,
+                bbox=dict(facecolor="white", edgecolor="none", alpha=0.7, pad=1.5))
     return handles
 
 
-def _axis_limit_lines(ax, peak: float, limits, moving) -> bool:
-    """Dashed +-limit lines of the moving axes, and a symmetric y range showing the data and
-    the limits near it (a limit far above the data, e.g. Z jerk 10x X's, is left off-scale)."""
+def _axis_limit_lines(ax, peak: float, limits, moving, reference=None) -> tuple[bool, float, bool]:
+    """Dashed +-limit lines of the moving axes and a symmetric y range (``view.robust_span``):
+    the data and the limits near them, or, when the data go far beyond ``reference``, a range
+    around it with the rest clipped. Returns (limits drawn, span, clipped)."""
+    near = [lim for lim, mv in zip(limits, moving) if mv] if limits is not None else []
+    reach = 1.6 * max([peak] + ([min(near)] if near else []))
+    candidates = [lim for lim, mv in zip(limits, moving) if mv and lim <= reach] if limits is not None else []
+    span, clipped = view.robust_span(peak, reference, candidates)
     shown = []
     if limits is not None:
-        near = [lim for lim, mv in zip(limits, moving) if mv]
-        reach = 1.6 * max([peak] + ([min(near)] if near else []))
         for i, lim in enumerate(limits):
-            if moving[i] and lim <= reach:
+            if moving[i] and lim <= min(reach, span):
                 ax.axhline(lim, color=AXIS_COLORS[i], lw=0.8, ls="--", alpha=0.6)
                 ax.axhline(-lim, color=AXIS_COLORS[i], lw=0.8, ls="--", alpha=0.6)
                 shown.append(lim)
-    span = 1.12 * max([peak] + shown)
     if span > 0 and np.isfinite(span):
         ax.set_ylim(-span, span)
-    return bool(shown)
+    return bool(shown), span, clipped
 
 
-def _dynamics(ax, t, tangential, per_axis, limits, convert, what: str) -> None:
+def _mark_clipped(ax, t, series, colors, span) -> int:
+    """Triangles at the panel's edge where a series runs beyond +-span (one per run of
+    clipped samples, at its extreme); returns the number of clipped samples."""
+    count = 0
+    for values, color in zip(series, colors):
+        v = np.asarray(values, dtype=np.float64)
+        for sign, marker in ((1.0, "^"), (-1.0, "v")):
+            over = np.isfinite(v) & (sign * v > span)
+            count += int(over.sum())
+            if not over.any():
+                continue
+            start, end, code = _runs(over.astype(np.int8))
+            runs = [(a, b) for a, b, c in zip(start, end, code) if c]
+            peak = [a + int(np.argmax(sign * v[a:b])) for a, b in runs]
+            ax.plot(t[peak], np.full(len(peak), sign * span * 0.965), ls="", marker=marker, ms=4,
+                    color=color, markeredgecolor="k", markeredgewidth=0.3, zorder=6, clip_on=False)
+    return count
+
+
+def _dynamics(ax, t, tangential, per_axis, limits, convert, what: str, moving,
+              reference=None, lw: float = 1.0) -> tuple[int, float, float]:
+    """One dynamics panel; returns (samples clipped, span, peak), in display units. Clipped
+    values leave a gap in their curve (no stroke to the edge) and a mark at the edge."""
     per_axis = convert(per_axis)
     tangential = convert(tangential)
-    moving = [_finite_any(per_axis[:, i]) and np.nanmax(np.abs(per_axis[:, i])) > 0
-              for i in range(3)]
-    for i in range(3):
-        if _finite_any(per_axis[:, i]):
-            ax.plot(t, per_axis[:, i], color=AXIS_COLORS[i], lw=0.9, label=f"{AXIS_NAMES[i]} axis")
-    if _finite_any(tangential):
-        ax.plot(t, tangential, color="k", lw=1.2, label=f"tangential {what}")
     peak = max(float(np.nanmax(np.abs(a))) if _finite_any(a) else 0.0
                for a in (per_axis, tangential))
-    if _axis_limit_lines(ax, peak, None if limits is None else convert(limits), moving):
+    lim = None if limits is None else convert(limits)
+    ref = None if reference is None else convert(reference)
+    drawn, span, clipped = _axis_limit_lines(ax, peak, lim, moving, ref)
+    count = 0
+    if clipped:
+        edge = span / 1.12
+        count = _mark_clipped(ax, t, [per_axis[:, i] for i in range(3)] + [tangential],
+                              [*AXIS_COLORS, "k"], edge)
+        per_axis = np.where(np.abs(per_axis) > edge, np.nan, per_axis)
+        tangential = np.where(np.abs(tangential) > edge, np.nan, tangential)
+    for i in range(3):
+        if _finite_any(per_axis[:, i]) or (clipped and moving[i]):
+            ax.plot(t, per_axis[:, i], color=AXIS_COLORS[i], lw=0.8 * lw, label=f"{AXIS_NAMES[i]} axis")
+    if _finite_any(tangential) or clipped:
+        ax.plot(t, tangential, color="k", lw=lw, label=f"tangential {what}")
+    if drawn:
         ax.plot([], [], color="0.4", ls="--", lw=0.8, label="axis limits ±")
+    if clipped:
+        ax.plot([], [], ls="", marker="^", ms=4, color="0.5", markeredgecolor="k",
+                markeredgewidth=0.3, label="clipped")
     ax.axhline(0.0, color="0.6", lw=0.5)
     _legend_above(ax)
+    return count, span / 1.12, peak
+
+
+def _note_below(fig, ax, lines: list[str]) -> None:
+    """Notes under a bottom panel, left-aligned with it (between its axis label and the
+    figure's footer)."""
+    if lines:
+        fig.text(ax.get_position().x0, 0.022, "\n".join(lines), ha="left", va="bottom",
+                 fontsize=7.5, color="0.15")
+
+
+def _wrap(text: str, width: int) -> str:
+    import textwrap
+    return "\n".join(textwrap.wrap(text, width))
+
+
+def _equal_aspect(box, height_over_width: float):
+    """Widen the shorter side of an XY box about its centre so that 1 mm is as long on both
+    axes of a panel ``height_over_width`` high per unit width."""
+    (x0, x1), (y0, y1) = box
+    w, h = x1 - x0, y1 - y0
+    if h / w < height_over_width:
+        grow = (w * height_over_width - h) / 2
+        return (x0, x1), (y0 - grow, y1 + grow)
+    grow = (h / height_over_width - w) / 2
+    return (x0 - grow, x1 + grow), (y0, y1)
 
 
 def run_figure(trace: Trace, *, motion=None, machine=None, title: str | None = None,
-               max_samples: int = MAX_PLOT_SAMPLES) -> RunFigure:
+               max_samples: int = MAX_PLOT_SAMPLES, rapids: str = "show",
+               window: view.Window | None = None, feed_unit: str = "mm/min",
+               numbers: np.ndarray | None = None, outline_xy: np.ndarray | None = None) -> RunFigure:
     """The figure of a run (module docstring). ``motion`` gives exact block boundaries;
-    ``machine`` (default: the motion's) the axis limits drawn on the dynamics panels."""
+    ``machine`` (default: the motion's) the axis limits drawn on the dynamics panels;
+    ``rapids`` ``show`` (thin, grey) or ``hide``; ``window`` a time span to zoom to; ``numbers``
+    the N number of each block of the motion (``view.block_numbers``) for the labels;
+    ``outline_xy`` the whole part (``view.part_outline_xy``), drawn faintly behind a zoom."""
+    if rapids not in view.RAPIDS:
+        raise UsageError(f"rapids must be one of {', '.join(view.RAPIDS)}, got {rapids!r}")
     panels, missing = available_panels(trace)
     if not panels:
         raise UsageError("nothing to plot: the trace has no samples with time and feed")
     if machine is None and motion is not None:
         machine = motion.machine
     notes = []
-    trace, step = _thin(trace, max_samples)
+    s_cut_all = view.cutting_length_mm(trace, motion)
+    inside = view.window_samples(trace, window)
+    if len(inside) < 2:
+        raise UsageError("nothing to plot in the chosen range: fewer than two samples")
+    drawn_idx, step = _thin(trace.select(inside), max_samples)
+    idx = inside[drawn_idx]
+    trace, s_cut = trace.select(idx), s_cut_all[idx]
     if step > 1:
         notes.append(f"1 sample in {step} drawn")
+    show = rapids == "show"
+    rapid = view.rapid_mask(trace)
+    if not view.rapids_known(trace):
+        notes.append("rapids not told apart (the trace has no programmed_mm_min column)")
+    elif not show and rapid.any():
+        notes.append("rapids hidden")
 
     fig = Figure(figsize=FIGSIZE_IN, dpi=DPI)
     FigureCanvasAgg(fig)
     axes = _layout(fig, panels)
     t = trace.t_s
-    bt, bs, bxy, bline = _block_starts(trace, motion)
-    inner = slice(1, None)  # the first block starts at 0: no line there
-    draw_bounds = len(bt) <= MAX_BOUNDARIES
+    bounds = _block_starts(trace, motion, numbers, s_cut)
+    draw_bounds = len(bounds.t) <= MAX_BOUNDARIES
     if not draw_bounds:
-        notes.append(f"{len(bt)} blocks: boundaries not drawn")
+        notes.append(f"{len(bounds.t) + 1} blocks in view: boundaries not drawn (zoom with --range)")
     limits_drawn: set[int] = set()
     has_limit = bool(len(trace.limit)) and not np.all(trace.limit == Limit.NONE)
+    shade = np.where(rapid, RAPID_CODE if show else HIDDEN_CODE, trace.limit.astype(np.int64))
+    feeds = _feeds(trace, rapid, feed_unit)
+    clipped: dict[str, int] = {}
+    lw = 1.0 if len(bounds.t) <= DENSE_BLOCKS else 0.5     # many blocks: thin lines
 
     if "feed_time" in axes:
         ax = axes["feed_time"]
-        if has_limit:
-            limits_drawn |= _shade_limits(ax, t, trace.limit)
-        handles = _feed_lines(ax, t, trace, motion)
+        if has_limit or rapid.any():
+            limits_drawn |= _shade_limits(ax, t, shade if has_limit else np.where(rapid, shade, HIDDEN_CODE))
+        handles = _feed_lines(ax, t, feeds, show, feed_unit, lw)
         if draw_bounds:
-            _boundaries(ax, bt[inner], bline[inner], label_lines=True)
+            _boundaries(ax, bounds.t, bounds.labels)
             handles.append(Line2D([], [], color="0.45", lw=0.6, label="block boundary"))
         ax.set_xlabel("time (s)")
+        ax.set_xlim(t[0], t[-1])
         ax.set_title("feed against time", fontsize=10, loc="left")
         _legend_above(ax, handles)
     if "feed_path" in axes:
         ax = axes["feed_path"]
-        s = trace.s_mm
         if has_limit:
-            limits_drawn |= _shade_limits(ax, s, trace.limit)
-        handles = _feed_lines(ax, s, trace, motion)
+            limits_drawn |= _shade_limits(ax, s_cut, np.where(rapid, HIDDEN_CODE, shade))
+        _feed_lines(ax, s_cut, feeds, False, feed_unit, lw)
         if draw_bounds:
-            _boundaries(ax, bs[inner], bline[inner], label_lines=False)
-        ax.set_xlabel("path length s (mm)")
-        ax.set_title("feed along the path", fontsize=10, loc="left")
+            _boundaries(ax, bounds.s_cut[bounds.cutting], None)
+        lo, hi = float(np.nanmin(s_cut)), float(np.nanmax(s_cut))
+        if hi > lo:
+            ax.set_xlim(lo, hi)
+        known = view.rapids_known(trace)
+        ax.set_xlabel("cutting path length (mm)" if known else "path length s (mm)")
+        ax.set_title("feed along the cutting path (rapids take no length)" if known and rapid.any()
+                     else "feed along the path", fontsize=10, loc="left")
     if "xy_path" in axes:
         ax = axes["xy_path"]
         xy = trace.pos_mm[:, :2]
-        feed = mm_s_to_mm_min(trace.feed_mm_s)
         seg = np.stack([xy[:-1], xy[1:]], axis=1)
-        lc = LineCollection(seg, cmap="viridis", linewidths=2.0, zorder=2)
-        lc.set_array(0.5 * (feed[:-1] + feed[1:]))
+        seg_rapid = rapid[:-1] | rapid[1:]
+        norm = Normalize(0.0, feeds.top)
+        lc = LineCollection(seg[~seg_rapid], cmap="viridis", norm=norm, linewidths=2.0, zorder=2)
+        lc.set_array(0.5 * (feeds.cutting[:-1] + feeds.cutting[1:])[~seg_rapid])
         ax.add_collection(lc)
-        ax.autoscale_view()
+        handles = []
+        if outline_xy is not None and len(outline_xy):
+            ax.plot(outline_xy[:, 0], outline_xy[:, 1], color="0.8", lw=0.8, zorder=0.5)
+            handles.append(Line2D([], [], color="0.8", lw=0.8, label="rest of the part"))
+        if show and seg_rapid.any():
+            ax.add_collection(LineCollection(seg[seg_rapid], colors=RAPID_COLOR, linewidths=0.7,
+                                             linestyles="--", zorder=1), autolim=False)
+            handles.append(Line2D([], [], color=RAPID_COLOR, lw=0.7, ls="--", label="rapid (G0)"))
         cb = fig.colorbar(lc, ax=ax, pad=0.02, fraction=0.05)
-        cb.set_label("reached feed (mm/min)")
-        handles = [Line2D([], [], color="k", marker="^", ls="", label="start")]
-        ax.plot(xy[0, 0], xy[0, 1], "k^", ms=7, zorder=4)
-        if draw_bounds and len(bxy) > 1:
-            ax.plot(bxy[1:, 0], bxy[1:, 1], "o", color="k", ms=3, zorder=3)
+        cb.set_label(f"reached feed ({feed_unit})")
+        first_cut = int(np.argmax(~rapid)) if (~rapid).any() else 0
+        ax.plot(xy[first_cut, 0], xy[first_cut, 1], "k^", ms=7, zorder=4)
+        handles.insert(0, Line2D([], [], color="k", marker="^", ls="", label="start"))
+        if draw_bounds and bounds.cutting.any():
+            b = bounds.xy[bounds.cutting]
+            ax.plot(b[:, 0], b[:, 1], "o", color="k", ms=3, zorder=3)
             handles.append(Line2D([], [], color="k", marker="o", ms=3, ls="", label="block boundary"))
-        ax.set_aspect("equal", adjustable="datalim")
+        box = view.xy_limits(trace, ~rapid)
+        if box is not None:
+            pos = ax.get_position()   # after the colorbar took its share
+            fig_w, fig_h = fig.get_size_inches()
+            (x0, x1), (y0, y1) = _equal_aspect(box, pos.height * fig_h / (pos.width * fig_w))
+            ax.set_xlim(x0, x1)
+            ax.set_ylim(y0, y1)
+        ax.set_aspect("equal", adjustable="box")
         ax.set_xlabel("X (mm)")
         ax.set_title("XY path coloured by feed", fontsize=10, loc="left")
-        _legend_above(ax, handles)
+        ax.legend(handles=handles, loc="best", fontsize=8, framealpha=0.85)
+    moving = [bool(_finite_any(trace.vel_mm_s[:, i]) and np.nanmax(np.abs(trace.vel_mm_s[:, i])) > 0)
+              or bool(_finite_any(trace.jerk_mm_s3[:, i]) and np.nanmax(np.abs(trace.jerk_mm_s3[:, i])) > 0)
+              or bool(_finite_any(trace.acc_mm_s2[:, i]) and np.nanmax(np.abs(trace.acc_mm_s2[:, i])) > 0)
+              for i in range(3)]
+    hide = (lambda a: np.where(rapid[:, None] if a.ndim == 2 else rapid, np.nan, a)) if not show \
+        else (lambda a: a)
     if "accel" in axes:
         ax = axes["accel"]
-        _dynamics(ax, t, trace.accel_t_mm_s2, trace.acc_mm_s2,
-                  None if machine is None else machine.max_accel_mm_s2, mm_s2_to_m_s2, "acceleration")
+        _dynamics(ax, t, hide(trace.accel_t_mm_s2), hide(trace.acc_mm_s2),
+                  None if machine is None else machine.max_accel_mm_s2, mm_s2_to_m_s2,
+                  "acceleration", moving, lw=lw)
         ax.set_xlabel("time (s)")
         ax.set_title("acceleration", fontsize=10, loc="left")
     if "jerk" in axes:
         ax = axes["jerk"]
-        _dynamics(ax, t, trace.jerk_t_mm_s3, trace.jerk_mm_s3,
-                  None if machine is None else machine.max_jerk_mm_s3, mm_s3_to_m_s3, "jerk")
+        n, span, peak = _dynamics(ax, t, hide(trace.jerk_t_mm_s3), hide(trace.jerk_mm_s3),
+                                  None if machine is None else machine.max_jerk_mm_s3,
+                                  mm_s3_to_m_s3, "jerk", moving,
+                                  view.jerk_reference_mm_s3(machine, moving), lw=lw)
+        clipped["jerk"] = n
+        lines = []
+        if n:
+            lines.append(f"▲▼ jerk beyond ±{span:.3g} m/s³ clipped and marked at the edge (up to {peak:.3g} m/s³)")
+        shown = trace if show else trace.select(~rapid)
+        lines += view.jerk_notes(shown, motion, machine, moving)
+        _note_below(fig, ax, [_wrap(x, 140) for x in lines][:3])
         ax.set_xlabel("time (s)")
         ax.set_title("jerk", fontsize=10, loc="left")
     for name, ax in axes.items():
-        ax.set_ylabel(PANEL_YLABELS[name])
+        label = PANEL_YLABELS[name]
+        ax.set_ylabel(label.replace("mm/min", feed_unit) if name.startswith("feed") else label)
         ax.grid(True, color="0.85", lw=0.5)
         if draw_bounds and name in ("accel", "jerk"):
-            _boundaries(ax, bt[inner], None, label_lines=False)
+            _boundaries(ax, bounds.t, None)
 
     if limits_drawn:
         order = sorted(limits_drawn)
-        patches = [Patch(facecolor=LIMIT_COLORS.get(LIMIT_LABELS[c], "#fff"), alpha=0.55,
-                         edgecolor="0.6", label=LIMIT_LABELS[c]) for c in order]
+        patches = [Patch(facecolor=RAPID_SHADE if c == RAPID_CODE else LIMIT_COLORS.get(LIMIT_LABELS[c], "#fff"),
+                         alpha=0.55, edgecolor="0.6", label="rapid (G0)" if c == RAPID_CODE else LIMIT_LABELS[c])
+                   for c in [c for c in order if c != RAPID_CODE] + [c for c in order if c == RAPID_CODE]]
         fig.legend(handles=patches, loc="upper center", bbox_to_anchor=(0.5, 0.935),
-                   ncol=min(len(patches), 7), fontsize=9, frameon=False,
+                   ncol=min(len(patches), 8), fontsize=9, frameon=False,
                    title="background: the limit holding the feed", title_fontsize=9)
     if missing:
         notes.append("left out: " + "; ".join(f"{p} (needs {need})" for p, need in missing.items()))
     head = title or "ncsim run"
-    if len(t):
-        head += f"   cycle time {t[-1]:.3f} s"
+    total = motion.total_time_s if motion is not None else (float(t[-1]) if len(t) else 0.0)
+    head += f"   cycle time {total:.3f} s"
+    if window is not None:
+        head += f"   view: {window.label}"
     fig.suptitle(head, fontsize=13, y=0.985)
     if notes:
         fig.text(0.5, 0.005, "; ".join(notes), ha="center", va="bottom", fontsize=8, color="0.35")
-    return RunFigure(figure=fig, panels=tuple(axes), missing=missing, notes=tuple(notes))
+    return RunFigure(figure=fig, panels=tuple(axes), missing=missing, notes=tuple(notes),
+                     axes=dict(axes), clipped=clipped)
 
 
 # ---------------------------------------------------------------------------------------------
