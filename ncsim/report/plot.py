@@ -289,8 +289,9 @@ def _feed_lines(ax, x, f: _Feeds, show_rapids: bool, unit: str, lw: float = 1.0)
     handles = []
     if _finite_any(f.programmed):
         handles += ax.plot(x, f.programmed, color="0.25", lw=1.2, ls=":", label="programmed F")
-    if _finite_any(f.setpoint):
-        handles += ax.plot(x, f.setpoint, color="C3", lw=1.2 * lw, ls="--", label="set point (eq. 12)")
+    if _finite_any(f.setpoint):   # dashes drown in many short blocks: solid and faint there
+        handles += ax.plot(x, f.setpoint, color="C3", lw=1.2 * lw, ls="--" if lw >= 1 else "-",
+                           alpha=1.0 if lw >= 1 else 0.6, label="set point (eq. 12)")
     if show_rapids and _finite_any(f.rapid):
         handles += ax.plot(x, f.rapid, color=RAPID_COLOR, lw=0.7, label="rapid (G0)")
     handles += ax.plot(x, f.cutting, color="k", lw=1.4 * lw, label="reached feed")
@@ -487,8 +488,9 @@ def run_figure(trace: Trace, *, motion=None, machine=None, title: str | None = N
         if outline_xy is not None and len(outline_xy):
             ax.plot(outline_xy[:, 0], outline_xy[:, 1], color="0.8", lw=0.8, zorder=0.5)
             handles.append(Line2D([], [], color="0.8", lw=0.8, label="rest of the part"))
-        if show and seg_rapid.any():
-            ax.add_collection(LineCollection(seg[seg_rapid], colors=RAPID_COLOR, linewidths=0.7,
+        rapid_seg = seg[seg_rapid]
+        if show and len(rapid_seg) and np.nanmax(np.abs(rapid_seg[:, 1] - rapid_seg[:, 0])) > 0:
+            ax.add_collection(LineCollection(rapid_seg, colors=RAPID_COLOR, linewidths=0.7,
                                              linestyles="--", zorder=1), autolim=False)
             handles.append(Line2D([], [], color=RAPID_COLOR, lw=0.7, ls="--", label="rapid (G0)"))
         cb = fig.colorbar(lc, ax=ax, pad=0.02, fraction=0.05)
