@@ -90,19 +90,23 @@ def _intervals(motion):
     pt = np.asarray(motion.piece_t_s, dtype=np.float64)
     te = np.asarray(motion.t_end_s, dtype=np.float64)
     m, n = len(pt) - 1, len(te)
-    # merged sorted times without a full sort: each sequence is sorted already
+    # merged sorted times without a full sort (each sequence is sorted already); at equal
+    # times a piece boundary comes first, so a stretch starting there has the piece starting
+    # there and the block that ends later
     pos_p = np.arange(len(pt)) + np.searchsorted(te, pt, side="left")
     pos_e = np.arange(n) + np.searchsorted(pt, te, side="right")
     t = np.empty(len(pt) + n)
     t[pos_p] = pt
     t[pos_e] = te
+    is_piece = np.zeros(len(t), dtype=np.int64)
+    is_piece[pos_p] = 1
+    is_end = np.zeros(len(t), dtype=np.int64)
+    is_end[pos_e] = 1
+    piece = np.clip(np.cumsum(is_piece)[:-1] - 1, 0, m - 1)   # last piece starting at or before
+    block = np.clip(np.cumsum(is_end)[:-1], 0, n - 1)         # blocks ended at or before
     t0, t1 = t[:-1], t[1:]
-    keep = t1 > t0
-    t0, t1 = t0[keep], t1[keep]
-    piece = np.clip(np.searchsorted(pt, t0, side="right") - 1, 0, m - 1)
-    block = np.clip(np.searchsorted(te, t0, side="right"), 0, n - 1)
-    moving = motion.piece_phase[piece] != Phase.STOP
-    return t0[moving], t1[moving], piece[moving], block[moving]
+    keep = (t1 > t0) & (motion.piece_phase[piece] != Phase.STOP)
+    return t0[keep], t1[keep], piece[keep], block[keep]
 
 
 def _s_at(motion, piece, t):
@@ -164,25 +168,27 @@ def losses(motion) -> Losses:
     significant = pair_lost > TINY_S
 
     block_lost = np.bincount(pair_block, weights=pair_lost, minlength=n)
-    # the cause losing each block the most (pairs grouped by block: max per group)
+    # the cause losing each block the most: pairs are grouped by block (sorted key), so the
+    # group maximum and its first pair come from reduceat, linear in the pairs
     block_cause = np.full(n, int(Limit.NONE), dtype=np.int8)
     if significant.any():
         pb, pc, pl = pair_block[significant], pair_cause[significant], pair_lost[significant]
-        o = np.lexsort((-pl, pb))
-        head = np.concatenate([[True], pb[o][1:] != pb[o][:-1]])
-        block_cause[pb[o][head]] = pc[o][head]
+        start = np.flatnonzero(np.concatenate([[True], pb[1:] != pb[:-1]]))
+        group = np.cumsum(np.concatenate([[True], pb[1:] != pb[:-1]])) - 1
+        top = np.maximum.reduceat(pl, start)
+        best = np.flatnonzero(pl == top[group])
+        best = best[np.concatenate([[True], group[best][1:] != group[best][:-1]])]
+        block_cause[pb[best]] = pc[best]
 
     kind = path.rapid[pair_block].astype(np.int64)
     for k in (0, 1):
         sel = (kind == k) & significant
         by_cause[k] = np.bincount(pair_cause[sel], weights=pair_lost[sel], minlength=N_CAUSES)
         blocks_by[k] = np.bincount(pair_cause[sel], minlength=N_CAUSES)
-        if sel.any():
-            pc, pl, pb = pair_cause[sel], pair_lost[sel], pair_block[sel]
-            o = np.lexsort((-pl, pc))
-            head = np.concatenate([[True], pc[o][1:] != pc[o][:-1]])
-            worst[k, pc[o][head]] = pb[o][head]
-            worst_lost[k, pc[o][head]] = pl[o][head]
+        for c in np.flatnonzero(blocks_by[k]):
+            where = np.flatnonzero(sel & (pair_cause == c))
+            w = where[int(np.argmax(pair_lost[where]))]
+            worst[k, c], worst_lost[k, c] = pair_block[w], pair_lost[w]
     rapid = np.asarray(path.rapid, dtype=bool)
     settle_by_kind = np.array([settle[~rapid].sum(), settle[rapid].sum()])
     return Losses(reference_mm_s=ref, ideal_s=ideal, lost_s=np.maximum(block_lost, 0.0),
