@@ -215,3 +215,27 @@ def test_real_thws_program_is_framed_on_its_cutting_moves(shared):
     # the home position of the tool change (X-365 Y224 in the program) is outside the view
     assert not (x0 <= -365 <= x1 and y0 <= 224 <= y1)
     assert (y1 - y0) < 1.2 * (hi[1] - lo[1]) or (x1 - x0) < 1.2 * (hi[0] - lo[0])
+
+
+def test_range_on_a_saved_trace(repo_root, tmp_path):
+    """A trace keeps source lines (and the programmed feed with --trace-columns all), not N
+    numbers: lines and seconds zoom, N numbers are a clear error."""
+    csv = tmp_path / "bore.csv"
+    r = CliRunner().invoke(cli, ["run", str(repo_root / "programs" / "bore_d25_f5984.mpf"), "-m",
+                                 "mikron", "--trace", str(csv), "--trace-columns", "all"])
+    assert r.exit_code == 0, r.output
+    for text in ("14:18", "0.7s:1.5s"):
+        r = CliRunner().invoke(cli, ["plot", "--trace", str(csv), "-o", str(tmp_path / "z.png"),
+                                     "--range", text])
+        assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(cli, ["plot", "--trace", str(csv), "-o", str(tmp_path / "n.png"),
+                                 "--range", "N40:N50"])
+    assert r.exit_code == 2 and "a trace has no N numbers" in r.stderr
+    from ncsim.report.csvio import read_trace_csv, trace_from_columns
+    trace = trace_from_columns(read_trace_csv(csv))
+    window = view.window_for(view.parse_range("14:18"), trace)
+    inside = trace.t_s[(trace.line >= 14) & (trace.line <= 18)]
+    assert window.t0_s == pytest.approx(inside.min()) and window.t1_s == pytest.approx(inside.max())
+    result = run_figure(trace, window=window)
+    assert result.axes["feed_time"].get_xlim()[0] <= window.t0_s
+    assert "cycle time 2.121 s" in result.figure._suptitle.get_text()   # the run's, not the view's

@@ -418,6 +418,7 @@ def run_figure(trace: Trace, *, motion=None, machine=None, title: str | None = N
     if machine is None and motion is not None:
         machine = motion.machine
     notes = []
+    total = motion.total_time_s if motion is not None else float(np.nanmax(trace.t_s))
     s_cut_all = view.cutting_length_mm(trace, motion)
     inside = view.window_samples(trace, window)
     if len(inside) < 2:
@@ -559,7 +560,6 @@ def run_figure(trace: Trace, *, motion=None, machine=None, title: str | None = N
     if missing:
         notes.append("left out: " + "; ".join(f"{p} (needs {need})" for p, need in missing.items()))
     head = title or "ncsim run"
-    total = motion.total_time_s if motion is not None else (float(t[-1]) if len(t) else 0.0)
     head += f"   cycle time {total:.3f} s"
     if window is not None:
         head += f"   view: {window.label}"

@@ -231,6 +231,9 @@ def window_for(spec: RangeSpec | None, trace: Trace | None, motion=None,
         return Window(t0, t1, f"t = {t0:.2f}-{t1:.2f} s")
     t_start, t_stop, line, file_index = _blocks(motion, trace)
     if spec.kind == "n":
+        if motion is None:
+            raise UsageError(f"--range {spec.text}: a trace has no N numbers (give source lines "
+                             f"or seconds, or plot the PROGRAM)")
         if numbers is None or not np.any(numbers >= 0):
             raise UsageError(f"--range {spec.text}: the program has no N numbers (give lines or seconds)")
         key, what = numbers, "N"
