@@ -36,7 +36,7 @@ def _pairs(values, what: str) -> dict:
               help="Machine: a bundled name or a TOML file.")
 @click.option("--measured", "measured_file", required=True, type=click.Path(dir_okay=False),
               help="Measured trace (CSV) or published values (TOML summary).")
-@click.option("--format", "fmt", type=click.Choice(["auto", "csv", "umich", "summary"]),
+@click.option("--format", "fmt", type=click.Choice(["auto", "csv", "kit", "umich", "summary"]),
               default="auto", show_default=True, help="How to read --measured.")
 @click.option("--column", "columns", multiple=True, metavar="KEY=NAME",
               help="CSV column of a trace key (t, x, y, z, feed, vx, vy, vz, x_cmd, y_cmd, z_cmd, line).")
@@ -44,6 +44,11 @@ def _pairs(values, what: str) -> dict:
               help="Unit of a trace key (t=ms, pos=um, feed=m/min, ...).")
 @click.option("--sample-period-ms", type=float, default=None,
               help="Sampling period when the CSV has no time column.")
+@click.option("--work-offset", "work_offsets", multiple=True, metavar="G54=X,Y,Z",
+              help="Work offset (mm) of the trace's machine coordinates; default: the setup "
+                   "or machine file's, else fitted.")
+@click.option("--setup", "setup_file", default=None, type=click.Path(dir_okay=False),
+              help="Setup file with the work offsets ([work_offsets] G54 = [x, y, z]).")
 @click.option("--base", default=None,
               help="Base model: full, axis-only or full-minus-EFFECT (default: full for traces, "
                    "axis-only for published values).")
@@ -58,8 +63,9 @@ def _pairs(values, what: str) -> dict:
               help="Write the machine file corrected with the fitted parameters.")
 @click.option("--feed-unit", type=click.Choice(FEED_UNITS), default="mm/min", show_default=True,
               help="Feeds of the text output in this unit (the JSON keeps the unit in its keys).")
-def gap(programs, machine_name, measured_file, fmt, columns, units, sample_period_ms, base,
-        effects, no_combine, as_json, plot_prefix, plot_format, machine_out, feed_unit) -> None:
+def gap(programs, machine_name, measured_file, fmt, columns, units, sample_period_ms,
+        work_offsets, setup_file, base, effects, no_combine, as_json, plot_prefix, plot_format,
+        machine_out, feed_unit) -> None:
     """Diagnose the gap between PROGRAM(s) simulated on a machine and a measurement: where it is,
     which unmodelled effect causes it, and how much of it each effect closes."""
     from ncsim.gap.pipeline import diagnose
@@ -69,11 +75,17 @@ def gap(programs, machine_name, measured_file, fmt, columns, units, sample_perio
                          "its key names")
     if sample_period_ms is not None and not sample_period_ms > 0:
         raise UsageError(f"--sample-period-ms must be positive, got {sample_period_ms:g}")
-    result = diagnose(programs, measured_file, machine_name, fmt=fmt,
-                      columns=_pairs(columns, "--column"), units=_pairs(units, "--unit"),
-                      sample_period_s=None if sample_period_ms is None else ms_to_s(sample_period_ms),
-                      base=base, effects=None if effects is None else effects.split(","),
-                      combine=not no_combine)
+    bar = _ProgressBar()
+    try:
+        result = diagnose(programs, measured_file, machine_name, fmt=fmt,
+                          columns=_pairs(columns, "--column"), units=_pairs(units, "--unit"),
+                          sample_period_s=None if sample_period_ms is None
+                          else ms_to_s(sample_period_ms),
+                          base=base, effects=None if effects is None else effects.split(","),
+                          combine=not no_combine, work_offsets=_offsets(work_offsets),
+                          setup=setup_file, progress=bar)
+    finally:
+        bar.close()
     out = result.as_dict()
     if machine_out:
         try:
@@ -92,6 +104,44 @@ def gap(programs, machine_name, measured_file, fmt, columns, units, sample_perio
         click.echo(f"wrote {p}")
     if machine_out:
         click.echo(f"wrote {machine_out}")
+
+
+def _offsets(values) -> dict:
+    """``--work-offset G54=X,Y,Z`` (repeatable) as ``{"G54": (x, y, z)}`` in mm."""
+    from ncsim.config import is_settable_offset
+    out = {}
+    for name, text in _pairs(values, "--work-offset").items():
+        key = name.upper()
+        if not is_settable_offset(key):
+            raise UsageError(f"--work-offset {name}: not a settable work offset (G54..G57, "
+                             "G505..G599)")
+        try:
+            xyz = tuple(float(v) for v in text.split(","))
+        except ValueError:
+            xyz = ()
+        if len(xyz) != 3 or not all(math.isfinite(v) for v in xyz):
+            raise UsageError(f"--work-offset {name}: expected three finite numbers X,Y,Z in mm, "
+                             f"got {text!r}")
+        out[key] = xyz
+    return out
+
+
+class _ProgressBar:
+    """The gap pipeline's progress (stage, number, total) on ``ncsim``'s stderr bar, drawn
+    only on a terminal."""
+
+    def __init__(self):
+        from ncsim.cli.main import Progress
+        self.bar = Progress([])
+
+    def __call__(self, name: str, index: int, total: int) -> None:
+        if len(self.bar.stages) != total:
+            self.bar.stages = [""] * total
+        self.bar.started = index - 1
+        self.bar(name)
+
+    def close(self) -> None:
+        self.bar.close()
 
 
 def _finite(o):

@@ -72,6 +72,7 @@ class Alignment:
     deviation_mm: np.ndarray     # (m, 3) measured (offset removed) minus the matched place
     valid: np.ndarray            # (m,) inside the simulated span and within max distance
     residual_rms_mm: float       # RMS position residual after shift and offset (time-aligned)
+    covered_s_mm: tuple | None = None  # (first, last) place of a registered recording
 
     @property
     def feed_error_mm_s(self) -> np.ndarray:
@@ -176,6 +177,24 @@ def estimate_noise_mm(pos_mm, speed_mm_s, rest_threshold_mm_s) -> float:
         return 0.0
     d2 = p[2:] - 2 * p[1:-1] + p[:-2]
     return float(np.median(np.abs(d2)) / 0.6745 / math.sqrt(6.0))
+
+
+def place_time_shift_s(t_meas_s, speed_meas, place_s_mm, sim_t_s, sim_s_mm, sim_feed_mm_s,
+                       threshold_mm_s) -> float:
+    """Time shift of a recording whose samples have known places on the path: the median, over
+    samples moving in both, of the measured time minus the simulated time at the place (the
+    first instant the simulation reaches it). At rest a place does not tell the time; if no
+    sample moves, the first sample is matched with the simulation's first visit of its place."""
+    ss = np.asarray(sim_s_mm, dtype=np.float64)
+    ts = np.asarray(sim_t_s, dtype=np.float64)
+    # the first instant of each path length: drop the standstills' repeated lengths
+    first = np.concatenate([[True], np.diff(ss) > 0])
+    t_at = np.interp(place_s_mm, ss[first], ts[first])
+    v_sim = np.interp(t_at, ts, sim_feed_mm_s)
+    moving = (np.asarray(speed_meas) > threshold_mm_s) & (v_sim > threshold_mm_s)
+    if not np.any(moving):
+        return float(t_meas_s[0] - t_at[0])
+    return float(np.median(np.asarray(t_meas_s)[moving] - t_at[moving]))
 
 
 def interp_rows(t, tp, fp) -> np.ndarray:
@@ -311,7 +330,7 @@ def align(measured: MeasuredTrace, sim_pos_mm, sim_t_s, sim_s_mm, *, sim_block=N
           speed_smoothing_s: float = 0.02, transition_half_width_s: float = 0.012,
           max_distance_mm: float = math.inf, noise_mm: float | None = None,
           use_command: bool = False, measured_speed_mm_s=None,
-          sim_speed_mm_s=None) -> Alignment:
+          sim_speed_mm_s=None, place_s_mm=None) -> Alignment:
     """Align ``measured`` to the simulated samples (see the module docstring).
 
     ``sim_pos_mm`` (n, 3), ``sim_t_s`` (n,), ``sim_s_mm`` (n,, non-decreasing) describe the
@@ -326,6 +345,10 @@ def align(measured: MeasuredTrace, sim_pos_mm, sim_t_s, sim_s_mm, *, sim_block=N
     ``measured_speed_mm_s`` and ``sim_speed_mm_s`` may give the speeds this function would
     derive (the measured speed, and the simulated speed through the same operator when the
     measured one is derived from positions): fitting loops align many models to one trace.
+    ``place_s_mm`` is the place of every sample on the path (``ncsim.gap.register``, in the
+    path length of ``sim_s_mm``): the recording may then start and end anywhere; the time
+    shift is the median over moving samples of the measured time minus the simulated time at
+    the place (``"place"``), and the matching starts from the place.
     """
     pts = np.asarray(sim_pos_mm, dtype=np.float64)
     ts = np.asarray(sim_t_s, dtype=np.float64)
@@ -362,9 +385,18 @@ def align(measured: MeasuredTrace, sim_pos_mm, sim_t_s, sim_s_mm, *, sim_block=N
     v_max_sim = float(np.max(sim_feed)) if n else 0.0
     threshold = onset_threshold_mm_s or max(0.02 * v_max_sim, 1e-6)
 
+    place_s = None
+    if place_s_mm is not None:
+        place_s = np.asarray(place_s_mm, dtype=np.float64)
+        if place_s.shape != (m,):
+            raise UsageError(f"place_s_mm has shape {place_s.shape}, expected ({m},)")
+
     # 1. time shift -----------------------------------------------------------------------
     if time_shift_s is not None:
         tau, shift_used = float(time_shift_s), "given"
+    elif place_s is not None:
+        tau = place_time_shift_s(tm, v_meas, place_s, ts, ss, sim_feed, threshold)
+        shift_used = "place"
     else:
         on_sim = motion_onset_s(ts, v_sim_cmp, threshold)
         on_meas = motion_onset_s(tm, v_meas, threshold) if shift_method != "xcorr" else None
@@ -440,7 +472,7 @@ def align(measured: MeasuredTrace, sim_pos_mm, sim_t_s, sim_s_mm, *, sim_block=N
     residual_rms = float(np.sqrt(np.mean(np.sum(r_time ** 2, axis=1))))
 
     # 3. path parameter ---------------------------------------------------------------------
-    s_prior = np.interp(t_al, ts, ss)
+    s_prior = np.interp(t_al, ts, ss) if place_s is None else place_s
     dt = np.zeros(m)
     dt[1:] = np.diff(tm)
     restart = np.zeros(m, dtype=bool)
@@ -485,7 +517,9 @@ def align(measured: MeasuredTrace, sim_pos_mm, sim_t_s, sim_s_mm, *, sim_block=N
                      offset_method=offset_used, t_s=t_al, s_mm=s_match, sim_index=j, sim_frac=u,
                      block=block, phase=phase, t_sim_s=t_sim, time_error_s=t_al - t_sim,
                      feed_mm_s=v_meas, sim_feed_mm_s=feed_sim, deviation_mm=deviation,
-                     valid=valid, residual_rms_mm=residual_rms)
+                     valid=valid, residual_rms_mm=residual_rms,
+                     covered_s_mm=None if place_s is None
+                     else (float(place_s[0]), float(place_s.max())))
 
 
 def align_trace(measured: MeasuredTrace, trace, **kwargs) -> Alignment:

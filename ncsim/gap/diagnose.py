@@ -7,9 +7,11 @@ Pipeline (:func:`diagnose`):
    the planned motion sampled on a uniform grid (``MODEL_DT_S``, 2 ms; held at rest for
    ``SETTLE_S`` after the end so that lagging axes can settle) and passed through the model's
    trace effects (servo, structure).
-2. **Alignment** (``ncsim.gap.align``): the measured samples are put on the model's clock and
-   zero and mapped to their place on the model path.
-3. **Gap metrics** (:class:`GapMetrics`), over the aligned samples inside the model's span:
+2. **Alignment**: the recording is registered on the program once (``ncsim.gap.register``:
+   the blocks and pass it covers, the work offset, each sample's place on the path), then, per
+   model, put on the model's clock and mapped to its place on the model path
+   (``ncsim.gap.align``).
+3. **Gap metrics** (``ncsim.gap.metrics``), over the aligned samples inside the model's span:
 
    * ``feed_rms_mm_s``: RMS of measured minus model path speed at the same place. Both speeds
      go through the same central difference over about ``SPEED_WINDOW_S`` (the measured one is
@@ -18,7 +20,9 @@ Pipeline (:func:`diagnose`):
      the same path length), counted from its median: a constant is only another clock offset
      (the alignment's freedom, e.g. a pure servo delay), while a feed law that differs makes it
      grow along the path;
-   * ``cycle_time_error_s``: measured minus model time from the start of the motion to its end;
+   * ``cycle_time_error_s``: measured minus model duration of the motion compared (from the
+     motion onset, or the first covered place, to the end of the motion, or the last covered
+     place: a recording may cover part of the program);
    * ``contour_rms_um``: RMS distance from each measured sample to the model path (the contour
      error; on arcs it is the radial deviation);
    * ``gap``: the combined, dimensionless gap on which effects of every kind are ranked::
@@ -55,13 +59,13 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
-from typing import Iterable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from ncsim.gap.align import AlignPhase, Alignment, align, estimate_noise_mm
+from ncsim.gap.align import AlignPhase, Alignment, align
 from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, TRACE_EFFECTS, Model, jsonable,
                       apply_trace_effects, corrected_machine, get_effect, make_base,
                       model_description)
@@ -70,18 +74,17 @@ from ncsim.gap.iso230 import circular_deviation, deviation_profile, radial_devia
 from ncsim.plan.limits import path_limits
 from ncsim.machine import MachineSpec
 from ncsim.gap.measured import MeasuredTrace, derived_speed_mm_s
+from ncsim.gap.metrics import (SLOWEST_FEED_SHARE, SPEED_WINDOW_S, GapMetrics, GapScales,
+                               compare_speed_mm_s, gap_metrics, gap_scales, rms,
+                               shrink_percent)
+from ncsim.gap.register import Registration, register
 from ncsim.path import ARC, Path
 from ncsim.plan.lookahead import plan
 from ncsim.plan.sample import sample_motion
-from ncsim.units import mm_to_um, s_to_ms, um_to_mm
+from ncsim.units import mm_to_um, s_to_ms
 
 MODEL_DT_S = 2e-3            # model trace grid (chord error a dt^2/8: 0.5 um at 1 m/s^2)
 SETTLE_S = 0.5               # model held at rest after the end (lagging axes settle)
-SPEED_WINDOW_S = 0.02        # central-difference window of derived speeds
-TIME_SCALE_S = 2e-3          # s_t
-MIN_CONTOUR_SCALE_UM = 1.0   # lower bound of s_d
-FEED_SCALE_SHARE = 0.002     # s_v includes 0.2 % of the top measured feed
-MOVING_SHARE = 0.02          # "moving": feed above 2 % of the top feed
 COMBINE_MIN_GAIN = 0.05      # combined model: an effect must shrink the gap by 5 % more
 N_GRID = 7                   # float parameters: log-spaced grid points before Brent
 MAX_STARTS = 2               # float parameters: local minima of the grid refined
@@ -164,128 +167,6 @@ class ModelCache:
 
 
 # ---------------------------------------------------------------------------------------------
-# Gap metrics
-# ---------------------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class GapScales:
-    """Resolution scales of the combined gap (module docstring, step 3)."""
-
-    feed_mm_s: float
-    time_s: float
-    contour_mm: float
-    noise_mm: float
-    speed_window_s: float
-
-
-def gap_scales(measured: MeasuredTrace, speed_window_s: float = SPEED_WINDOW_S) -> GapScales:
-    """Scales from the measured trace alone (so every model is judged on the same scale):
-    position noise from the standstill scatter (``align.estimate_noise_mm``); a central
-    difference over ``W`` turns it into a speed noise of ``sqrt(2) noise / W``."""
-    period = measured.period_s if len(measured) > 1 else 1e-3
-    k = max(1, int(round(0.5 * speed_window_s / period)))
-    width = 2 * k * period
-    speed = measured.speed_mm_s(width)
-    top = float(np.max(speed)) if len(speed) else 0.0
-    noise = estimate_noise_mm(measured.pos_mm, speed, max(MOVING_SHARE * top, 1e-6))
-    speed_noise = math.sqrt(2.0) * noise / width
-    return GapScales(feed_mm_s=max(2.0 * speed_noise + FEED_SCALE_SHARE * top, 1e-3),
-                     time_s=TIME_SCALE_S,
-                     contour_mm=max(2.0 * noise, um_to_mm(MIN_CONTOUR_SCALE_UM)),
-                     noise_mm=noise, speed_window_s=width)
-
-
-@dataclass(frozen=True)
-class GapMetrics:
-    """The gap between a measured trace and a model (module docstring, step 3)."""
-
-    gap: float
-    feed_rms_mm_s: float
-    time_rms_ms: float
-    cycle_time_error_s: float
-    contour_rms_um: float
-    contour_max_um: float
-    n_samples: int
-    parts: Mapping[str, float] = field(default_factory=dict)  # normalised squared contributions
-    n_unmatched: int = 0         # measured samples in motion outside the model's span
-
-    def metric_values(self) -> dict:
-        return {k: getattr(self, k) for k in METRIC_NAMES}
-
-    def as_dict(self) -> dict:
-        return {"gap": self.gap, "feed_rms_mm_s": self.feed_rms_mm_s,
-                "time_rms_ms": self.time_rms_ms, "cycle_time_error_s": self.cycle_time_error_s,
-                "contour_rms_um": self.contour_rms_um, "contour_max_um": self.contour_max_um,
-                "n_samples": self.n_samples, "n_unmatched": self.n_unmatched,
-                "parts": dict(self.parts)}
-
-
-METRIC_NAMES = ("gap", "feed_rms_mm_s", "time_rms_ms", "cycle_time_error_s", "contour_rms_um")
-
-
-def _rms(x) -> float:
-    x = np.asarray(x, dtype=np.float64)
-    return float(np.sqrt(np.mean(x * x))) if x.size else 0.0
-
-
-def _end_of_motion_s(t_s, speed, threshold) -> float:
-    moving = np.nonzero(np.asarray(speed) > threshold)[0]
-    return float(t_s[moving[-1]]) if len(moving) else float(t_s[-1])
-
-
-def compare_speed_mm_s(mt: ModelTrace, scales: GapScales) -> np.ndarray:
-    """The model speed compared with the measured one: through the same operator (a central
-    difference over the speed window) unless the model trace already carries it."""
-    if mt.compare_speed_mm_s is not None:
-        return mt.compare_speed_mm_s
-    return derived_speed_mm_s(mt.t_s, mt.pos_mm, scales.speed_window_s)
-
-
-def gap_metrics(al: Alignment, mt: ModelTrace, scales: GapScales) -> GapMetrics:
-    """Gap metrics of an alignment of a measured trace to a model trace."""
-    valid = al.valid
-    top = max(float(np.max(mt.feed_mm_s)), float(np.max(al.feed_mm_s)), 1e-9)
-    thr = MOVING_SHARE * top
-    model_speed = compare_speed_mm_s(mt, scales)
-    v_model = np.interp(al.t_sim_s, mt.t_s, model_speed)
-    moving = valid & ((al.feed_mm_s > thr) | (v_model > thr))
-    # measured samples in motion outside the model's span (the model ended or started too
-    # early, or the alignment failed): the model stands still there, so the feed error is the
-    # measured speed and the time error at least the time outside the model's motion
-    t_model_start = float(mt.t_s[np.argmax(model_speed > thr)]) if np.any(model_speed > thr) else 0.0
-    t_model_end = _end_of_motion_s(mt.t_s, model_speed, thr)
-    unmatched = ~valid & (al.feed_mm_s > thr)
-    outside = np.maximum(np.maximum(t_model_start - al.t_s, al.t_s - t_model_end), 0.0)
-    feed_err = np.concatenate([(al.feed_mm_s - v_model)[moving], al.feed_mm_s[unmatched]])
-    # the clock offset is the alignment's own freedom (any constant is a different time
-    # shift): the time error counts from its median, so only its growth along the path is gap
-    te = al.time_error_s[moving]
-    te = te - np.median(te) if te.size else te
-    time_err = np.concatenate([te, outside[unmatched]])
-    dist = al.distance_mm[valid]
-    # cycle time: measured motion end (on the model clock) minus model motion end
-    t_meas_end = _end_of_motion_s(al.t_s, al.feed_mm_s, thr)
-    parts = {"feed": (_rms(feed_err) / scales.feed_mm_s) ** 2,
-             "time": (_rms(time_err) / scales.time_s) ** 2,
-             "contour": (_rms(dist) / scales.contour_mm) ** 2}
-    return GapMetrics(gap=math.sqrt(sum(parts.values())), feed_rms_mm_s=_rms(feed_err),
-                      time_rms_ms=s_to_ms(_rms(time_err)),
-                      cycle_time_error_s=t_meas_end - t_model_end,
-                      contour_rms_um=mm_to_um(_rms(dist)),
-                      contour_max_um=mm_to_um(float(np.max(dist))) if dist.size else 0.0,
-                      n_samples=int(np.count_nonzero(valid)), parts=parts,
-                      n_unmatched=int(np.count_nonzero(unmatched)))
-
-
-def shrink_percent(before: float, after: float) -> float:
-    """How much of a gap closed: ``100 (1 - |after| / |before|)`` (negative: it grew)."""
-    b, a = abs(before), abs(after)
-    if b <= 0:
-        return 0.0
-    return 100.0 * (1.0 - a / b)
-
-
-# ---------------------------------------------------------------------------------------------
 # Evaluating models against a measured trace
 # ---------------------------------------------------------------------------------------------
 
@@ -293,14 +174,23 @@ class Evaluator:
     """Gap of models against one measured trace on one path (caches the plans)."""
 
     def __init__(self, path: Path, measured: MeasuredTrace, *, dt_s: float = MODEL_DT_S,
-                 align_options: Mapping | None = None):
+                 align_options: Mapping | None = None, registration: Registration | None = None):
         if len(measured) < 10:
             raise UsageError(f"{measured.source}: {len(measured)} samples, need at least 10 "
                              "to diagnose a gap")
         self.path = path
         self.measured = measured
+        if registration is None:
+            registration = register(measured.pos_mm, path, signal="actual").require(measured.source)
+        if len(registration.s_mm) != len(measured):
+            raise UsageError(f"{measured.source}: the registration has {len(registration.s_mm)} "
+                             f"samples, the trace {len(measured)}")
+        self.registration = registration
         self.cache = ModelCache(path, dt_s=dt_s)
-        self.scales = gap_scales(measured)
+        seg = np.unique(registration.segment)
+        feeds = path.feed_mm_s[seg][~path.rapid[seg] & np.isfinite(path.feed_mm_s[seg])]
+        cap = SLOWEST_FEED_SHARE * float(feeds.min()) if feeds.size else math.inf
+        self.scales = gap_scales(measured, moving_cap_mm_s=cap)
         self.align_options = dict(align_options or {})
         self.derived = measured.feed_mm_s is None and measured.vel_mm_s is None
         self.measured_speed = (measured.speed_mm_s(self.scales.speed_window_s) if self.derived
@@ -315,8 +205,11 @@ class Evaluator:
         return replace(mt, compare_speed_mm_s=speed)
 
     def align(self, mt: ModelTrace) -> Alignment:
+        top = max(float(np.max(mt.feed_mm_s)), 1e-9)
         opts = dict(noise_mm=self.scales.noise_mm, speed_smoothing_s=SPEED_WINDOW_S,
-                    measured_speed_mm_s=self.measured_speed)
+                    measured_speed_mm_s=self.measured_speed,
+                    onset_threshold_mm_s=max(self.scales.moving_mm_s(top), 1e-6),
+                    offset_mm=self.registration.offset_mm, place_s_mm=self.registration.s_mm)
         if self.derived:
             opts["sim_speed_mm_s"] = mt.compare_speed_mm_s
         opts.update(self.align_options)
@@ -568,7 +461,7 @@ def localise(al: Alignment, mt: ModelTrace, path: Path, scales: GapScales,
     dist_um = mm_to_um(al.distance_mm)
     ok = al.valid & (al.block >= 0)
     # at rest the place does not tell the time: time errors from samples in motion only
-    moving = v_model > MOVING_SHARE * max(float(np.max(model_speed)), 1e-9)
+    moving = v_model > scales.moving_mm_s(max(float(np.max(model_speed)), 1e-9))
     blocks = []
     for b in np.unique(al.block[ok]):
         sel = ok & (al.block == b)
@@ -578,11 +471,11 @@ def localise(al: Alignment, mt: ModelTrace, path: Path, scales: GapScales,
         blocks.append({"block": int(b), "line": int(path.line[b]), "n": int(len(idx)),
                        "kind": "arc" if path.kind[b] == ARC else "line",
                        "feed_error_mean_mm_s": float(np.mean(feed_err[idx])),
-                       "feed_error_rms_mm_s": _rms(feed_err[idx]),
+                       "feed_error_rms_mm_s": rms(feed_err[idx]),
                        "time_error_in_ms": s_to_ms(float(te[0])),
                        "time_error_out_ms": s_to_ms(float(te[-1])),
                        "duration_error_ms": s_to_ms(float(te[-1] - te[0])),
-                       "contour_rms_um": _rms(dist_um[idx]),
+                       "contour_rms_um": rms(dist_um[idx]),
                        "contour_max_um": float(np.max(dist_um[idx]))})
     score = lambda r: (abs(r["duration_error_ms"]) / s_to_ms(scales.time_s)  # noqa: E731
                        + r["feed_error_rms_mm_s"] / scales.feed_mm_s
@@ -595,8 +488,8 @@ def localise(al: Alignment, mt: ModelTrace, path: Path, scales: GapScales,
         if np.any(sel):
             mov = sel & moving
             phases.append({"phase": name, "n": int(np.count_nonzero(sel)),
-                           "feed_error_rms_mm_s": _rms(feed_err[sel]),
-                           "contour_rms_um": _rms(dist_um[sel]),
+                           "feed_error_rms_mm_s": rms(feed_err[sel]),
+                           "contour_rms_um": rms(dist_um[sel]),
                            "time_error_mean_ms": s_to_ms(float(np.mean(al.time_error_s[mov])))
                            if np.any(mov) else 0.0})
 
@@ -740,19 +633,28 @@ def combine(evaluator, fits: Sequence[EffectFit], gap_before,
 def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base: str = "full",
              candidates: Sequence[str] | None = None, do_combine: bool = True,
              localisation: bool = True, align_options: Mapping | None = None,
-             program: str = "") -> Diagnosis:
+             program: str = "", registration: Registration | None = None,
+             progress: Callable[[str], None] | None = None) -> Diagnosis:
     """Diagnose the gap between ``measured`` and the ``base`` model of ``path`` on ``machine``
     (module docstring). ``candidates`` defaults to every planner effect and the servo and
-    structure effects."""
+    structure effects. ``registration`` places the samples on the path
+    (``ncsim.gap.register``; registered here when not given); ``progress`` is called with the
+    name of each fit as it begins."""
     t0 = time.perf_counter()
     base_model = make_base(machine, base)
-    ev = Evaluator(path, measured, align_options=align_options)
+    ev = Evaluator(path, measured, align_options=align_options, registration=registration)
     before, al, mt = ev.evaluate(base_model, full=True)
     cands = tuple(candidates) if candidates is not None else default_candidates()
     for c in cands:
         get_effect(c)
-    fits = [fit_effect(ev, base_model, c, gap_before=before) for c in cands]
+    fits = []
+    for c in cands:
+        if progress is not None:
+            progress(f"fit {c}")
+        fits.append(fit_effect(ev, base_model, c, gap_before=before))
     fits.sort(key=lambda f: f.gap_after.gap)
+    if do_combine and progress is not None:
+        progress("combine")
     comb = combine(ev, fits, before) if do_combine else None
     notes = []
     loc_before = localise(al, mt, path, ev.scales, measured) if localisation else {}
@@ -770,6 +672,9 @@ def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base:
                      alignment={"time_shift_s": al.time_shift_s,
                                 "offset_mm": [float(v) for v in al.offset_mm],
                                 "shift_method": al.shift_method,
-                                "offset_method": al.offset_method},
+                                "offset_method": ev.registration.offset_source,
+                                "covered": ev.registration.covered(),
+                                "residual_rms_um": mm_to_um(ev.registration.residual_rms_mm),
+                                "residual_max_um": mm_to_um(ev.registration.residual_max_mm)},
                      seconds=time.perf_counter() - t0, source=measured.source, program=program,
                      notes=tuple(notes))

@@ -23,7 +23,6 @@ time, an empty cell, a NaN or a missing column is an error.
 """
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass, field, fields, replace
 from typing import Any, Mapping
@@ -32,6 +31,7 @@ import numpy as np
 
 from ncsim.config import Problems, finite, non_negative, parse_toml, positive, read_text
 from ncsim.errors import MeasuredDataError, UsageError
+from ncsim.gap.csvtable import CsvTable, read_table
 from ncsim.units import DEG_PER_RAD, FACTORS, UM_PER_MM, mm_s_to_mm_min
 
 AXES = ("x", "y", "z")
@@ -60,6 +60,26 @@ DEFAULT_COLUMNS: dict[str, tuple[str, ...]] = {
     "z_cmd": ("z_cmd_mm", "z_cmd_um"),
     "line": ("line",),
 }
+
+#: column layouts of known recorders, detected from the header (``detect_preset``):
+#: ``kit`` -- the KIT wbk SINUMERIK Edge datasets (e.g. ``DMC60H_AL2007T4_Notch_Normal_1.csv``):
+#: ``time`` in s, ``pos_*`` actual and ``cmd_pos_*`` commanded positions in mm, machine
+#: coordinates. Their ``cmd_v_*`` is the drive's speed set point (it includes Kv times the
+#: contour deviation), not the derivative of ``cmd_pos_*``, so velocities are not mapped.
+PRESETS: dict[str, dict[str, str]] = {
+    "kit": {"t": "time", "x": "pos_x", "y": "pos_y", "z": "pos_z",
+            "x_cmd": "cmd_pos_x", "y_cmd": "cmd_pos_y", "z_cmd": "cmd_pos_z"},
+}
+
+
+def detect_preset(header: list[str]) -> str | None:
+    """The preset whose every column is in ``header`` (None if none)."""
+    names = set(header)
+    for name, columns in PRESETS.items():
+        if set(columns.values()) <= names:
+            return name
+    return None
+
 
 _DEFAULT_UNIT = {"time": "s", "length": "mm", "velocity": "mm/s"}
 _GROUP_UNIT_KEYS = {"pos": ("x", "y", "z", "x_cmd", "y_cmd", "z_cmd"), "vel": ("vx", "vy", "vz")}
@@ -181,6 +201,39 @@ class MeasuredTrace:
         return replace(self, t_s=self.t_s - time_shift_s, pos_mm=self.pos_mm - off,
                        cmd_pos_mm=None if self.cmd_pos_mm is None else self.cmd_pos_mm - off)
 
+    def thinned(self, min_period_s: float) -> "MeasuredTrace":
+        """The trace averaged over bins of ``k = floor(min_period_s / period)`` consecutive
+        samples (itself when ``k`` < 2): what a recorder that samples more slowly after a
+        moving-average filter would have written. A bin's time and values are the means of its
+        samples; integer and object columns keep the bin's first value; bins never span a
+        recording break (segment change or a gap over 3 periods). Over a window ``W`` the mean
+        departs from the motion by at most ``a W^2 / 24`` (0.04 um at 1 m/s^2 and 1 ms)."""
+        m = len(self)
+        k = int(min_period_s / self.period_s) if m > 1 else 1
+        if k < 2:
+            return self
+        brk = np.diff(self.t_s) > 3.0 * self.period_s
+        if self.segment is not None:
+            brk |= np.diff(self.segment) != 0
+        piece = np.concatenate([[0], np.cumsum(brk)])
+        first = np.concatenate([[0], np.nonzero(np.diff(piece))[0] + 1])
+        in_piece = np.arange(m) - first[piece]
+        key = piece * (m + 1) + in_piece // k
+        starts = np.concatenate([[0], np.nonzero(np.diff(key))[0] + 1])
+        counts = np.diff(np.concatenate([starts, [m]]))
+
+        def mean(a):
+            a = np.asarray(a)
+            if a.dtype.kind != "f":
+                return a[starts]
+            sums = np.add.reduceat(a, starts, axis=0)
+            return sums / (counts if a.ndim == 1 else counts[:, None])
+
+        changes = {f.name: mean(getattr(self, f.name)) for f in fields(self)
+                   if isinstance(getattr(self, f.name), np.ndarray)}
+        changes["extra"] = {name: mean(v) for name, v in self.extra.items()}
+        return replace(self, **changes)
+
     def command(self) -> "MeasuredTrace":
         """The commanded positions as a trace of their own (for the planner part of the gap)."""
         if self.cmd_pos_mm is None:
@@ -245,38 +298,7 @@ def derived_speed_mm_s(t_s: np.ndarray, pos_mm: np.ndarray, smooth_s: float = 0.
 # CSV loading
 # ---------------------------------------------------------------------------------------------
 
-def _sniff_delimiter(header_line: str) -> str:
-    counts = {d: header_line.count(d) for d in (",", ";", "\t")}
-    best = max(counts, key=counts.get)
-    return best if counts[best] > 0 else ","
-
-
-def _read_rows(file: str, text: str):
-    """Header and data rows of a CSV text, each data row with its 1-based file line number.
-    Blank lines and lines starting with ``#`` are skipped; fields do not span lines."""
-    lines = text.splitlines()
-    keep = [i for i, ln in enumerate(lines) if ln.strip() and not ln.lstrip().startswith("#")]
-    if not keep:
-        raise MeasuredDataError("empty file (no header row)", file=file)
-    delim = _sniff_delimiter(lines[keep[0]])
-    data = [lines[i] for i in keep]
-    if '"' in text:
-        parsed = list(csv.reader(data, delimiter=delim))
-    else:  # no quoting: a plain split is the same and several times faster
-        parsed = [ln.split(delim) for ln in data]
-    header = [h.strip() for h in parsed[0]]
-    rows = list(zip([i + 1 for i in keep[1:]], parsed[1:]))
-    return header, rows
-
-
-def _find(header: list[str], name: str) -> int | None:
-    if name in header:
-        return header.index(name)
-    low = [h.lower() for h in header]
-    return low.index(name.lower()) if name.lower() in low else None
-
-
-def _resolve_columns(file: str, header: list[str], columns: Mapping[str, str] | None,
+def _resolve_columns(table: CsvTable, columns: Mapping[str, str] | None,
                      units: Mapping[str, str] | None):
     """Logical key -> (column index, column name, factor to internal units)."""
     columns = dict(columns or {})
@@ -294,16 +316,17 @@ def _resolve_columns(file: str, header: list[str], columns: Mapping[str, str] | 
     for key, kind in KEY_KIND.items():
         if key in columns:
             name = columns[key]
-            i = _find(header, name)
+            i = table.find(name)
             if i is None:
                 raise MeasuredDataError(f"no such column (mapped for {key!r}; header has: "
-                                        f"{', '.join(header)})", file=file, column=name)
+                                        f"{', '.join(table.header)})", file=table.file,
+                                        column=name)
         else:
             i, name = None, None
             for cand in DEFAULT_COLUMNS[key]:
-                j = _find(header, cand)
+                j = table.find(cand)
                 if j is not None:
-                    i, name = j, header[j]
+                    i, name = j, table.header[j]
                     break
             if i is None:
                 continue
@@ -317,59 +340,33 @@ def _resolve_columns(file: str, header: list[str], columns: Mapping[str, str] | 
             factor = unit_factor(kind, unit)
         except KeyError:
             raise MeasuredDataError(f"unknown {kind} unit {unit!r} (known: "
-                                    f"{', '.join(FACTORS[kind])})", file=file,
+                                    f"{', '.join(FACTORS[kind])})", file=table.file,
                                     column=name) from None
         out[key] = (i, name, factor)
     return out
 
 
-def _parse_column(file: str, rows, index: int, name: str, factor: float) -> np.ndarray:
-    """One column as floats times ``factor``; any bad cell raises naming its line."""
-    try:  # fast path: numpy converts the whole column; on any problem, locate it below
-        out = np.array([r[index] for _, r in rows], dtype=np.float64)
-        if np.all(np.isfinite(out)):
-            return out * factor
-    except (ValueError, IndexError):
-        pass
-    out = np.empty(len(rows))
-    for k, (lineno, row) in enumerate(rows):
-        if index >= len(row):
-            raise MeasuredDataError(f"row has {len(row)} fields, no column '{name}'",
-                                    file=file, line=lineno)
-        cell = row[index].strip()
-        if not cell:
-            raise MeasuredDataError(f"column '{name}' is empty", file=file, line=lineno)
-        try:
-            v = float(cell)
-        except ValueError:
-            raise MeasuredDataError(f"column '{name}' is not a number: {cell!r}", file=file,
-                                    line=lineno) from None
-        if not math.isfinite(v):
-            raise MeasuredDataError(f"column '{name}' is {cell} (not a finite number)", file=file,
-                                    line=lineno)
-        out[k] = v
-    return out * factor
-
-
-def _check_time(file: str, t: np.ndarray, linenos: list[int]) -> None:
+def _check_time(table: CsvTable, t: np.ndarray) -> None:
     bad = np.nonzero(np.diff(t) <= 0)[0]
     if len(bad):
         i = int(bad[0]) + 1
         what = "repeats" if t[i] == t[i - 1] else "goes back from"
         raise MeasuredDataError(f"time {t[i]:.9g} s {what} the previous sample's "
-                                f"({t[i - 1]:.9g} s at line {linenos[i - 1]}): time must "
-                                "increase", file=file, line=linenos[i])
+                                f"({t[i - 1]:.9g} s at line {table.line_of(i - 1)}): time must "
+                                "increase", file=table.file, line=table.line_of(i))
 
 
-def _read_text(file) -> tuple[str, str]:
-    name = str(file)
-    return name, read_text(file, "file", error=MeasuredDataError)
+def _data_table(file) -> CsvTable:
+    table = read_table(file)
+    if not table.body.strip():
+        raise MeasuredDataError("no data rows after the header", file=table.file)
+    return table
 
 
 def load_measured_csv(file, *, columns: Mapping[str, str] | None = None,
                       units: Mapping[str, str] | None = None, time_column: str | None = None,
                       sample_period_s: float | None = None,
-                      index_column: str | None = None) -> MeasuredTrace:
+                      index_column: str | None = None, preset: str | None = "auto") -> MeasuredTrace:
     """Load a measured trace from CSV (see the module docstring for the conventions).
 
     ``columns`` maps logical keys (``t x y z feed vx vy vz x_cmd y_cmd z_cmd line``) to header
@@ -377,12 +374,16 @@ def load_measured_csv(file, *, columns: Mapping[str, str] | None = None,
     (or ``pos`` / ``vel`` for all positions / velocities). With ``sample_period_s`` the time is
     generated as ``row * period`` (``row`` counting data rows from 0, or the value of
     ``index_column`` when given, so that missing rows appear as dropped samples); a time column
-    is then not read. ``x`` and ``y`` are required; a missing ``z`` is zero.
+    is then not read. ``x`` and ``y`` are required; a missing ``z`` is zero. ``preset`` names
+    a known recorder's column layout (:data:`PRESETS`; ``"auto"``: detected from the header;
+    None: none), which ``columns`` override.
     """
-    name, text = _read_text(file)
-    header, rows = _read_rows(name, text)
-    if not rows:
-        raise MeasuredDataError("no data rows after the header", file=name)
+    table = _data_table(file)
+    name = table.file
+    if preset == "auto":
+        preset = detect_preset(table.header)
+    if preset is not None and preset not in PRESETS:
+        raise UsageError(f"unknown trace preset {preset!r} (known: {', '.join(PRESETS)})")
     columns = dict(columns or {})
     if time_column is not None:
         columns["t"] = time_column
@@ -391,42 +392,57 @@ def load_measured_csv(file, *, columns: Mapping[str, str] | None = None,
             raise UsageError("give either a time column or sample_period_s, not both")
         if not (math.isfinite(sample_period_s) and sample_period_s > 0):
             raise UsageError(f"sample_period_s must be positive, got {sample_period_s!r}")
-    resolved = _resolve_columns(name, header, columns, units)
-    linenos = [ln for ln, _ in rows]
-
-    def col(key):
-        i, cname, factor = resolved[key]
-        return _parse_column(name, rows, i, cname, factor)
-
+    layout = {k: v for k, v in (PRESETS[preset] if preset else {}).items()
+              if not (k == "t" and sample_period_s is not None)}
+    columns = {**layout, **columns}
+    resolved = _resolve_columns(table, columns, units)
     for key in ("x", "y"):
         if key not in resolved:
             raise MeasuredDataError(f"missing column for {key!r} (looked for "
-                                    f"{', '.join(DEFAULT_COLUMNS[key])}; map one with "
-                                    f"columns={{'{key}': ...}})", file=name,
+                                    f"{', '.join(DEFAULT_COLUMNS[key])}; name yours with "
+                                    f"--column {key}=NAME)", file=name,
                                     column=DEFAULT_COLUMNS[key][0])
+    if sample_period_s is None and "t" not in resolved:
+        raise MeasuredDataError("missing time column (looked for " +
+                                ", ".join(DEFAULT_COLUMNS["t"]) +
+                                "; name yours with --column t=NAME, or give the sampling "
+                                "period with --sample-period-ms)",
+                                file=name, column=DEFAULT_COLUMNS["t"][0])
     if sample_period_s is not None:
-        if index_column is not None:
-            i = _find(header, index_column)
-            if i is None:
-                raise MeasuredDataError("no such index column", file=name, column=index_column)
-            idx = _parse_column(name, rows, i, index_column, 1.0)
+        resolved.pop("t", None)
+    index_at = None
+    if sample_period_s is not None and index_column is not None:
+        index_at = table.find(index_column)
+        if index_at is None:
+            raise MeasuredDataError("no such index column", file=name, column=index_column)
+    # every numeric column in one pass of the compiled reader
+    keys = list(resolved)
+    wanted = [resolved[k][0] for k in keys] + ([index_at] if index_at is not None else [])
+    names = [resolved[k][1] for k in keys] + ([index_column] if index_at is not None else [])
+    block = table.floats(wanted, names)
+    if len(block) == 0:
+        raise MeasuredDataError("no data rows after the header", file=name)
+    values = {k: block[:, j] * resolved[k][2] for j, k in enumerate(keys)}
+    m = len(block)
+
+    def col(key):
+        return values[key]
+
+    if sample_period_s is not None:
+        if index_at is not None:
+            idx = block[:, -1]
             if np.any(idx != np.round(idx)):
                 k = int(np.nonzero(idx != np.round(idx))[0][0])
                 raise MeasuredDataError(f"index column '{index_column}' is not an integer",
-                                        file=name, line=linenos[k])
+                                        file=name, line=table.line_of(k))
             t = (idx - idx[0]) * sample_period_s
         else:
-            t = np.arange(len(rows)) * float(sample_period_s)
+            t = np.arange(m) * float(sample_period_s)
     else:
-        if "t" not in resolved:
-            raise MeasuredDataError("missing time column (looked for " +
-                                    ", ".join(DEFAULT_COLUMNS["t"]) +
-                                    "; map one with time_column=..., or give sample_period_s)",
-                                    file=name, column=DEFAULT_COLUMNS["t"][0])
         t = col("t")
-    _check_time(name, t, linenos)
+    _check_time(table, t)
 
-    pos = np.column_stack([col(k) if k in resolved else np.zeros(len(rows)) for k in AXES])
+    pos = np.column_stack([col(k) if k in resolved else np.zeros(m) for k in AXES])
     feed = col("feed") if "feed" in resolved else None
 
     def axis_group(keys, present, message):
@@ -438,7 +454,7 @@ def load_measured_csv(file, *, columns: Mapping[str, str] | None = None,
             if k not in resolved:
                 raise MeasuredDataError(f"{message} (no column for {k!r})", file=name,
                                         column=DEFAULT_COLUMNS[k][0])
-        return np.column_stack([col(k) if k in resolved else np.zeros(len(rows)) for k in keys])
+        return np.column_stack([col(k) if k in resolved else np.zeros(m) for k in keys])
 
     vel = axis_group(("vx", "vy", "vz"), ("vx", "vy"), "axis velocities need both vx and vy")
     cmd = axis_group(("x_cmd", "y_cmd", "z_cmd"), ("x_cmd", "y_cmd", "z_cmd"),
@@ -449,7 +465,7 @@ def load_measured_csv(file, *, columns: Mapping[str, str] | None = None,
         if np.any(raw != np.round(raw)):
             k = int(np.nonzero(raw != np.round(raw))[0][0])
             raise MeasuredDataError(f"column '{resolved['line'][1]}' is not an integer line "
-                                    "number", file=name, line=linenos[k])
+                                    "number", file=name, line=table.line_of(k))
         line = raw.astype(np.int64)
     return MeasuredTrace(t_s=t, pos_mm=pos, feed_mm_s=feed, vel_mm_s=vel, cmd_pos_mm=cmd,
                          line=line, source=name)
@@ -504,22 +520,19 @@ def load_umich_csv(file, *, drop_unreliable: bool = True) -> MeasuredTrace:
     Caveat (SOURCE.md): values have 3 significant figures, so positions above 100 mm have 1 mm
     resolution; use the velocities for servo analysis.
     """
-    name, text = _read_text(file)
-    header, rows = _read_rows(name, text)
-    if not rows:
-        raise MeasuredDataError("no data rows after the header", file=name)
-    linenos = [ln for ln, _ in rows]
+    table = _data_table(file)
+    name, header = table.file, table.header
 
     def col(cname, factor=1.0):
-        i = _find(header, cname)
+        i = table.find(cname)
         if i is None:
             raise MeasuredDataError("missing column (not a UMich SMART mill file?)", file=name,
                                     column=cname)
-        return _parse_column(name, rows, i, cname, factor)
+        return table.floats([i], [cname])[:, 0] * factor
 
-    idx = col(header[0]) if header[0] == "" else np.arange(len(rows), dtype=float)
+    idx = col(header[0]) if header[0] == "" else np.arange(table.n_rows(), dtype=float)
     t = (idx - idx[0]) * UMICH_PERIOD_S
-    _check_time(name, t, linenos)
+    _check_time(table, t)
 
     def axes3(signal):
         return np.column_stack([col(f"{a}1_{signal}") for a in ("X", "Y", "Z")])
@@ -529,11 +542,11 @@ def load_umich_csv(file, *, drop_unreliable: bool = True) -> MeasuredTrace:
     act_acc, cmd_acc = axes3("ActualAcceleration"), axes3("CommandAcceleration")
     feed_prog = col("M1_CURRENT_FEEDRATE")
     seq = col("M1_sequence_number").astype(np.int64)
-    i_proc = _find(header, "Machining_Process")
-    process = np.array([r[i_proc].strip() if i_proc is not None and i_proc < len(r) else ""
-                        for _, r in rows], dtype=object)
+    i_proc = table.find("Machining_Process")
+    process = np.array(table.text_column(i_proc) if i_proc is not None else [""] * len(t),
+                       dtype=object)
 
-    keep = np.ones(len(rows), dtype=bool)
+    keep = np.ones(len(t), dtype=bool)
     if drop_unreliable:
         keep = (feed_prog != UMICH_IDLE_FEED_MM_S) & (act_pos[:, 0] != UMICH_IDLE_X_MM)
         if not np.any(keep):
@@ -774,5 +787,6 @@ def load_measured_summary(file) -> MeasuredSummary:
     ``_mm_s``; ``_um``; ``_s``, ``_ms``). Each entry has an ``id`` and optionally ``program``,
     ``trajectory``, ``source`` (citation) and ``note``.
     """
-    name, text = _read_text(file)
+    name = str(file)
+    text = read_text(file, "file", error=MeasuredDataError)
     return summary_from_dict(parse_toml(text, name, error=MeasuredDataError), name)

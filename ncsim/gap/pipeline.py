@@ -24,17 +24,22 @@ The :class:`GapResult` it returns is what the command prints: ``as_dict()`` (``-
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, replace
 from pathlib import Path as FsPath
-from typing import Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
-from ncsim.errors import UsageError
+import numpy as np
+
+from ncsim.errors import MeasuredDataError, UsageError
 from ncsim.gap.effects import PLANNER_EFFECTS, Model, corrected_machine, get_effect
-from ncsim.gap.measured import (MeasuredTrace, load_measured_csv, load_measured_summary,
-                                load_umich_csv)
+from ncsim.gap.measured import (MeasuredTrace, detect_preset, load_measured_csv,
+                                load_measured_summary, load_umich_csv)
+from ncsim.gap.register import Registration, rate_problem, register
 from ncsim.machine import MachineSpec, dump_machine_toml, load_machine
 
-FORMATS = ("auto", "csv", "umich", "summary")
+FORMATS = ("auto", "csv", "kit", "umich", "summary")
+MIN_PERIOD_S = 1e-3   # a trace sampled faster is averaged down to 1 ms (the model grid is 2 ms)
 
 
 @dataclass
@@ -51,23 +56,29 @@ class GapResult:
     servo: object | None = None
     measured: MeasuredTrace | None = None   # the trace (``kind`` trace, split, servo)
     path: object | None = None              # the interpreted program (trace, split)
+    registration: Registration | None = None  # where the trace lies on the program
 
     def as_dict(self) -> dict:
         """The ``ncsim gap --json`` document (README "Sim-to-real gap")."""
         if self.kind == "summary":
             return self.planner.as_dict()
+        reg = {} if self.registration is None else {"registration": self.registration.as_dict()}
         if self.kind == "split":
-            return {"planner_part": self.planner.as_dict(), "servo_part": self.servo.as_dict()}
+            return {**reg, "planner_part": self.planner.as_dict(),
+                    "servo_part": self.servo.as_dict()}
         if self.kind == "trace":
-            return {"diagnosis": self.planner.as_dict()}
+            return {**reg, "diagnosis": self.planner.as_dict()}
         return {"servo_part": self.servo.as_dict()}
 
     def text(self, feed_unit: str = "mm/min") -> str:
         """The diagnosis as text, every feed in ``feed_unit`` (``units.FEED_UNITS``)."""
-        from ncsim.gap.report import format_servo, format_summary, format_trace
+        from ncsim.gap.report import (format_registration, format_servo, format_summary,
+                                      format_trace)
         if self.kind == "summary":
             return format_summary(self.planner, feed_unit)
         parts = []
+        if self.registration is not None:
+            parts.append(format_registration(self.registration))
         if self.planner is not None:
             head = "planner part (ncsim against the command): " if self.kind == "split" else ""
             parts.append(head + format_trace(self.planner, feed_unit))
@@ -88,7 +99,9 @@ class GapResult:
         if self.planner is not None:
             from ncsim.gap.diagnose import Evaluator
             target = self.measured.command() if self.measured.has_command else self.measured
-            files += plot.plot_trace(self.planner, Evaluator(self.path, target), prefix, fmt)
+            files += plot.plot_trace(self.planner, Evaluator(self.path, target,
+                                                             registration=self.registration),
+                                     prefix, fmt)
         return files
 
     def corrected_model(self) -> tuple[Model, list[tuple[str, dict]]]:
@@ -139,7 +152,8 @@ def _machine_file_notes(name: str, params: Mapping) -> list[str]:
 
 
 def detect_format(file: str | FsPath, fmt: str = "auto") -> str:
-    """``summary``, ``umich`` or ``csv`` (module docstring); ``fmt`` other than auto wins."""
+    """``summary``, ``umich``, ``kit`` or ``csv`` (module docstring); ``fmt`` other than auto
+    wins."""
     if fmt not in FORMATS:
         raise UsageError(f"unknown measured format {fmt!r} (known: {', '.join(FORMATS)})")
     if fmt != "auto":
@@ -151,7 +165,9 @@ def detect_format(file: str | FsPath, fmt: str = "auto") -> str:
             head = fh.readline()
     except OSError:
         return "csv"  # the loader reports the file error with its name
-    return "umich" if "X1_ActualPosition" in head else "csv"
+    if "X1_ActualPosition" in head:
+        return "umich"
+    return "kit" if detect_preset([h.strip() for h in head.split(",")]) == "kit" else "csv"
 
 
 def _candidates(effects: Sequence[str] | None) -> list[str] | None:
@@ -165,22 +181,108 @@ def _candidates(effects: Sequence[str] | None) -> list[str] | None:
     return names
 
 
+class Stages:
+    """Progress of a diagnosis: calls ``callback(name, index, total)`` as each stage begins
+    (``index`` 1-based; ``total`` grows once the candidates are known)."""
+
+    def __init__(self, callback: Callable[[str, int, int], None] | None, total: int):
+        self.callback = callback
+        self.total = total
+        self.done = 0
+
+    def expect(self, more: int) -> None:
+        self.total = self.done + more
+
+    def __call__(self, name: str) -> None:
+        self.done += 1
+        self.total = max(self.total, self.done)
+        if self.callback is not None:
+            self.callback(name, self.done, self.total)
+
+
+#: settable zero offsets selected by a program (840D G54..G57, G505..G599)
+_FRAME_WORD = re.compile(r"(?<![A-Z0-9_$])G0*(5[4-7]|50[5-9]|5[1-9][0-9])(?![0-9])", re.IGNORECASE)
+
+
+def selected_frames(path) -> set[str]:
+    """The settable frames the program files of ``path`` select (``{"G54"}``), read from
+    their text outside comments."""
+    found: set[str] = set()
+    for file in path.files:
+        try:
+            text = FsPath(file).read_text(encoding="utf-8-sig", errors="replace")
+        except OSError:
+            continue
+        for line in text.splitlines():
+            found.update(f"G{int(m)}" for m in _FRAME_WORD.findall(line.split(";")[0]))
+    return found
+
+
+def offset_prior(path, spec: MachineSpec, given: Mapping[str, tuple]) -> tuple:
+    """``(offset_mm or None, source)``: the work offset the recording should show (recorded =
+    path + offset). A program that selects a settable frame whose offset is known was
+    interpreted in machine coordinates already (offset 0). One that selects none runs in the
+    machine's reset frame, G54 on most machines (MD20152 $MC_GCODE_RESET_VALUES): its G54 (or
+    the one offset given) is the prior. Otherwise the offset is fitted."""
+    known = {name: tuple(float(x) for x in v) for name, v in spec.work_offsets_mm}
+    known.update({k: tuple(float(x) for x in v) for k, v in given.items()})
+    frames = selected_frames(path)
+    applied = sorted(frames & set(known))
+    if applied:
+        return np.zeros(3), f"{', '.join(applied)} applied by the program"
+    if frames:
+        return None, "fitted"
+    if "G54" in known:
+        return np.asarray(known["G54"]), "G54 given, the reset frame"
+    if len(given) == 1:
+        name, value = next(iter(given.items()))
+        return np.asarray(value, dtype=np.float64), f"{name} given"
+    return None, "fitted"
+
+
+def register_trace(trace: MeasuredTrace, path, spec: MachineSpec,
+                   work_offsets: Mapping[str, tuple]) -> Registration:
+    """Register the trace on the program (commanded positions when recorded: they follow the
+    program to the encoder resolution), refusing, with one line, what does not align or runs
+    at an implausible rate."""
+    prior, source = offset_prior(path, spec, work_offsets)
+    signal = "command" if trace.has_command else "actual"
+    q = trace.cmd_pos_mm if trace.has_command else trace.pos_mm
+    reg = register(q, path, signal=signal, offset_mm=prior, offset_source=source)
+    reg.require(trace.source)
+    problem = rate_problem(trace.t_s, q, path, reg)
+    if problem:
+        raise MeasuredDataError(problem, file=trace.source)
+    return reg
+
+
 def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
              machine: MachineSpec | str | FsPath = "mikron", *, fmt: str = "auto",
              columns: Mapping[str, str] | None = None, units: Mapping[str, str] | None = None,
              sample_period_s: float | None = None, base: str | None = None,
-             effects: Sequence[str] | None = None, combine: bool = True) -> GapResult:
+             effects: Sequence[str] | None = None, combine: bool = True,
+             work_offsets: Mapping[str, tuple] | None = None,
+             setup: str | FsPath | None = None,
+             progress: Callable[[str, int, int], None] | None = None) -> GapResult:
     """Diagnose the gap between ``programs`` simulated on ``machine`` and the ``measured`` file:
     where it is, which unmodelled effect causes it and how much of it each effect closes
     (module docstring). ``effects`` are the candidate effects (default: all that apply),
-    ``base`` the base model (``full``, ``axis-only``, ``full-minus-EFFECT``)."""
+    ``base`` the base model (``full``, ``axis-only``, ``full-minus-EFFECT``).
+    ``work_offsets`` (``{"G54": (x, y, z)}``, e.g. ``--work-offset``) and a ``setup`` file
+    give the work offsets of the recording's machine coordinates (:func:`offset_prior`);
+    ``progress`` is called with each stage's name, number and the number of stages."""
+    from ncsim.config import load_setup
     from ncsim.gap.servo_part import SERVO_CANDIDATES
 
+    stages = Stages(progress, 4)
     spec = machine if isinstance(machine, MachineSpec) else load_machine(machine)
+    offsets = dict(load_setup(setup)) if setup is not None else {}
+    offsets.update(work_offsets or {})
     programs = [str(p) for p in programs]
     file = str(measured)
     kind = detect_format(file, fmt)
     cands = _candidates(effects)
+    stages("read")
     if kind == "summary":
         from ncsim.gap.published import diagnose_summary
         if not programs:
@@ -193,36 +295,48 @@ def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
         trace = load_umich_csv(file)
     else:
         trace = load_measured_csv(file, columns=columns or None, units=units or None,
-                                  sample_period_s=sample_period_s)
+                                  sample_period_s=sample_period_s,
+                                  preset="kit" if kind == "kit" else "auto")
     if len(programs) > 1:
         raise UsageError(f"a measured trace is diagnosed against one PROGRAM, got {len(programs)}")
+    trace = trace.thinned(MIN_PERIOD_S)
+    servo_cands = None if cands is None else [c for c in cands if c in SERVO_CANDIDATES]
     if not programs:
         if not trace.has_command:
             raise UsageError(f"{file}: no PROGRAM given and no commanded positions in the trace: "
                              "nothing to compare with")
         from ncsim.gap.servo_part import diagnose_servo
-        servo_cands = None if cands is None else [c for c in cands if c in SERVO_CANDIDATES]
         if servo_cands == []:
             raise UsageError("--effects names no servo effect for the servo part "
                              f"({', '.join(SERVO_CANDIDATES)})")
-        s = diagnose_servo(trace, candidates=servo_cands, machine=spec)
+        stages.expect(len(servo_cands or SERVO_CANDIDATES))
+        s = diagnose_servo(trace, candidates=servo_cands, machine=spec, progress=stages)
         return GapResult("servo", file, spec, servo=s, measured=trace)
 
     from ncsim.gap.diagnose import default_candidates
     from ncsim.gap.diagnose import diagnose as diagnose_trace
     from ncsim.nc.interpret import interpret_file
-    path = interpret_file(programs[0], spec).path
+    stages("interpret")
+    path = interpret_file(programs[0], spec, setup_offsets=offsets or None).path
+    stages("register")
+    reg = register_trace(trace, path, spec, offsets)
     if not trace.has_command:
-        d = diagnose_trace(path, spec, trace, base=base or "full", candidates=cands,
-                           do_combine=combine, program=programs[0])
-        return GapResult("trace", file, spec, planner=d, measured=trace, path=path)
+        trace_cands = list(cands or default_candidates())
+        stages.expect(len(trace_cands) + (1 if combine else 0))
+        d = diagnose_trace(path, spec, trace, base=base or "full", candidates=trace_cands,
+                           do_combine=combine, program=programs[0], registration=reg,
+                           progress=stages)
+        return GapResult("trace", file, spec, planner=d, measured=trace, path=path,
+                         registration=reg)
     from ncsim.gap.servo_part import diagnose_split
     planner_cands = [c for c in (cands or default_candidates()) if c in PLANNER_EFFECTS]
     if not planner_cands:
         raise UsageError("--effects names no planner effect for the planner part")
-    servo_cands = None if cands is None else [c for c in cands if c in SERVO_CANDIDATES]
+    stages.expect(len(planner_cands) + (1 if combine else 0)
+                  + len(servo_cands or SERVO_CANDIDATES))
     split = diagnose_split(path, spec, trace, base=base or "full",
                            planner_candidates=planner_cands, servo_candidates=servo_cands or None,
-                           do_combine=combine, program=programs[0])
+                           do_combine=combine, program=programs[0], registration=reg,
+                           progress=stages)
     return GapResult("split", file, spec, planner=split.planner, servo=split.servo,
-                     measured=trace, path=path)
+                     measured=trace, path=path, registration=reg)

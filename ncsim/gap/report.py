@@ -49,6 +49,18 @@ def _pct(v: float) -> str:
     return "   n/a" if v is None or not math.isfinite(v) else f"{v:6.1f} %"
 
 
+def format_registration(reg) -> str:
+    """Where a :class:`ncsim.gap.register.Registration` put the recording, as one paragraph."""
+    what = "commanded positions" if reg.signal == "command" else "positions"
+    off = ", ".join(f"{v:.6f}" for v in reg.offset_mm)
+    lines = [f"recording: {what} cover {reg.covered()}",
+             f"  work offset ({off}) mm ({reg.offset_source}); residual "
+             f"{mm_to_um(reg.residual_rms_mm):.3g} um rms, {mm_to_um(reg.residual_max_mm):.3g} um "
+             f"max (noise {mm_to_um(reg.noise_mm):.2g} um)"]
+    lines += [f"  note: {n}" for n in reg.notes]
+    return "\n".join(lines) + "\n"
+
+
 def format_trace(d, feed_unit: str = "mm/min") -> str:
     """A :class:`ncsim.gap.diagnose.Diagnosis` as text, feeds in ``feed_unit``."""
     u, k = feed_unit, _fd(feed_unit)
@@ -58,10 +70,12 @@ def format_trace(d, feed_unit: str = "mm/min") -> str:
              f"  alignment: time shift {al['time_shift_s']:.4f} s ({al['shift_method']}), "
              f"zero offset ({', '.join(f'{v:.4f}' for v in al['offset_mm'])}) mm "
              f"({al['offset_method']}); position noise {mm_to_um(d.scales.noise_mm):.2f} um",
+             f"  covers {al['covered']}" if al.get("covered") else None,
              f"  base gap {g.gap:.3g}: feed {_f(g.feed_rms_mm_s, u):.{k}f} {u} rms, time {g.time_rms_ms:.2f} ms rms, "
              f"cycle time {g.cycle_time_error_s:+.4f} s, contour {g.contour_rms_um:.2f} um rms "
              f"(scales: feed {_f(d.scales.feed_mm_s, u):.3g} {u}, time {s_to_ms(d.scales.time_s):.3g} ms, "
              f"contour {mm_to_um(d.scales.contour_mm):.3g} um)", ""]
+    lines = [ln for ln in lines if ln is not None]
     lines += _fit_table(d.fits, d.combined, u)
     lines += _localisation(d.localisation_before, "where the base model departs", u)
     if d.localisation_after:

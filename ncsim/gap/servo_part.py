@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline
@@ -263,8 +263,10 @@ class ServoDiagnosis:
 
 
 def diagnose_servo(measured: MeasuredTrace, *, candidates: Sequence[str] | None = None,
-                   signal: str = "auto", machine: MachineSpec | None = None) -> ServoDiagnosis:
-    """Fit the servo-part effects to commanded-against-actual data (module docstring)."""
+                   signal: str = "auto", machine: MachineSpec | None = None,
+                   progress: Callable[[str], None] | None = None) -> ServoDiagnosis:
+    """Fit the servo-part effects to commanded-against-actual data (module docstring);
+    ``progress`` is called with the name of each fit as it begins."""
     t0 = time.perf_counter()
     ev = ServoEvaluator(measured, signal)
     cands = list(candidates) if candidates is not None else [
@@ -272,6 +274,8 @@ def diagnose_servo(measured: MeasuredTrace, *, candidates: Sequence[str] | None 
     before = ev.evaluate(None)
     fits = []
     for name in cands:
+        if progress is not None:
+            progress(f"fit {name}")
         effect = EFFECTS[name]
         if effect.kind != "trace":
             raise UsageError(f"{name} is a planner effect, not a servo-part candidate")
@@ -349,5 +353,6 @@ def diagnose_split(path, machine: MachineSpec, measured: MeasuredTrace, *, base:
         raise UsageError(f"{bad[0]} is not a planner effect: the command holds no servo effect")
     planner = diagnose(path, machine, measured.command(), base=base, candidates=cands,
                        program=program, **diagnose_options)
-    servo = diagnose_servo(measured, candidates=servo_candidates, machine=machine)
+    servo = diagnose_servo(measured, candidates=servo_candidates, machine=machine,
+                           progress=diagnose_options.get("progress"))
     return SplitDiagnosis(planner=planner, servo=servo)
