@@ -136,6 +136,7 @@ class MeasuredTrace:
     segment: np.ndarray | None = None        # (m,) int contiguous-recording index
     source: str = "<measured>"
     extra: Mapping[str, np.ndarray] = field(default_factory=dict)
+    length_unit: str = "mm"                  # the unit the file's positions were read in
 
     def __post_init__(self) -> None:
         t = np.asarray(self.t_s, dtype=np.float64)
@@ -144,7 +145,7 @@ class MeasuredTrace:
         m = len(t)
         object.__setattr__(self, "t_s", t)
         for f in fields(self):
-            if f.name in ("t_s", "source", "extra"):
+            if f.name in ("t_s", "source", "extra", "length_unit"):
                 continue
             v = getattr(self, f.name)
             if v is None:
@@ -240,7 +241,8 @@ class MeasuredTrace:
             raise MeasuredDataError("trace has no commanded positions", file=self.source)
         return MeasuredTrace(t_s=self.t_s, pos_mm=self.cmd_pos_mm, vel_mm_s=self.cmd_vel_mm_s,
                              acc_mm_s2=self.cmd_acc_mm_s2, line=self.line, segment=self.segment,
-                             source=self.source + " (command)", extra=dict(self.extra))
+                             source=self.source + " (command)", extra=dict(self.extra),
+                             length_unit=self.length_unit)
 
     def speed_mm_s(self, smooth_s: float = 0.0) -> np.ndarray:
         """Path speed at each sample: the recorded feed if any, else |axis velocity|, else a
@@ -467,8 +469,10 @@ def load_measured_csv(file, *, columns: Mapping[str, str] | None = None,
             raise MeasuredDataError(f"column '{resolved['line'][1]}' is not an integer line "
                                     "number", file=name, line=table.line_of(k))
         line = raw.astype(np.int64)
+    pos_key = "x_cmd" if "x_cmd" in resolved else "x"
+    unit = next((u for u, f in FACTORS["length"].items() if f == resolved[pos_key][2]), "mm")
     return MeasuredTrace(t_s=t, pos_mm=pos, feed_mm_s=feed, vel_mm_s=vel, cmd_pos_mm=cmd,
-                         line=line, source=name)
+                         line=line, source=name, length_unit=unit)
 
 
 def write_measured_csv(trace: MeasuredTrace, file, *, header_comment: str = "") -> None:

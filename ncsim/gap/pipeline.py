@@ -248,7 +248,8 @@ def register_trace(trace: MeasuredTrace, path, spec: MachineSpec,
     prior, source = offset_prior(path, spec, work_offsets)
     signal = "command" if trace.has_command else "actual"
     q = trace.cmd_pos_mm if trace.has_command else trace.pos_mm
-    reg = register(q, path, signal=signal, offset_mm=prior, offset_source=source)
+    reg = register(q, path, signal=signal, offset_mm=prior, offset_source=source,
+                   length_unit=trace.length_unit)
     reg.require(trace.source)
     problem = rate_problem(trace.t_s, q, path, reg)
     if problem:

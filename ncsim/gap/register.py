@@ -44,7 +44,7 @@ from itertools import permutations
 import numpy as np
 from scipy.signal import fftconvolve
 
-from ncsim.errors import MeasuredDataError
+from ncsim.errors import MeasuredDataError, UsageError
 from ncsim.gap.nearest import FORWARD_CHORDS, PathGeometry, path_geometry, track
 from ncsim.geometry import point_at
 from ncsim.path import Path
@@ -55,7 +55,6 @@ SIGNATURE_POINTS = 200_000        # the step grows so that program + recording s
 TANGENT_HALF_WIDTH_MM = 0.5       # chord tangents over +-0.5 mm (at least 2 steps)
 MIN_SIGNATURE = 0.8               # a placement's tangents must agree this well on average
 SIGNATURE_DROP = 0.25             # candidates: peaks within this of the best
-PASS_DROP = 0.05                  # passes: placements whose shape fits (nearly) as well
 MAX_CANDIDATES = 32
 MIN_SEPARATION_MM = 1.0           # two placements closer than this along the path are one
 FIRST_WINDOW_MM = 3.0             # where the first sample may lie around its seed
@@ -96,7 +95,7 @@ class Place:
                 "segment": self.segment, "fraction": self.fraction, "s_mm": self.s_mm}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Candidate:
     """One placement of the recorded shape on the program, refined."""
 
@@ -387,8 +386,8 @@ def rest_offset_mm(q_mm: np.ndarray, path: Path, s_mm: np.ndarray, noise: float)
     (end) point: the median of those rest samples minus the point. At rest there is no
     following error, no filter lag and no contour error, so this pins the offset better than
     any fit to the moving samples (a circle recorded with a radial deviation, a servo that cuts
-    corners). None when the recording does not rest there."""
-    tol = max(3.0 * noise, 1e-3)
+    corners). ``(offset, "start" or "end")``, or ``(None, "")`` when it does not rest there."""
+    tol = max(3.0 * noise, SCALE_FLOOR_MM)
     for ends_at, idx in ((0.0, np.arange(len(q_mm))),
                          (path.total_length_mm, np.arange(len(q_mm))[::-1])):
         if abs(float(s_mm[idx[0]]) - ends_at) > max(0.05, 10 * noise):
@@ -397,8 +396,24 @@ def rest_offset_mm(q_mm: np.ndarray, path: Path, s_mm: np.ndarray, noise: float)
         n_rest = int(np.argmin(run)) if not np.all(run) else len(run)
         if n_rest >= 3:
             point = path.start_mm[0] if ends_at == 0.0 else path.end_mm[-1]
-            return np.median(q_mm[idx[:n_rest]], axis=0) - point
-    return None
+            return (np.median(q_mm[idx[:n_rest]], axis=0) - point,
+                    "start" if ends_at == 0.0 else "end")
+    return None, ""
+
+
+def repeat_index(path: Path, k: int, tol_mm: float = 1e-6) -> tuple[int, int]:
+    """``(n, count)``: segment ``k`` is the ``n``-th of ``count`` segments of ``path`` with the
+    same geometry up to a translation (kind, start-to-end vector, start-to-centre vector,
+    normal, sweep) -- the passes of a repeated contour."""
+    def features(idx):
+        d = path.end_mm[idx] - path.start_mm[idx]
+        c = np.nan_to_num(path.center_mm[idx] - path.start_mm[idx])
+        return np.column_stack([path.kind[idx], d, c, path.normal[idx], path.sweep_rad[idx]])
+
+    f = features(np.arange(path.n))
+    same = np.all(np.abs(f - features(np.array([k]))) <= tol_mm, axis=1)
+    index = np.flatnonzero(same)
+    return int(np.searchsorted(index, k)) + 1, int(len(index))
 
 
 def _fits_as_well(a: Candidate, b: Candidate, noise: float) -> bool:
@@ -423,62 +438,64 @@ def tolerance_mm(q_mm: np.ndarray, signal: str, noise: float) -> float:
 
 
 def register(q_mm, path: Path, *, signal: str = "actual", offset_mm=None,
-             offset_source: str = "given", hints: bool = True) -> Registration:
+             offset_source: str = "given", hints: bool = True,
+             length_unit: str = "mm") -> Registration:
     """Register the recorded positions ``q_mm`` (m, 3) on ``path`` (module docstring).
     ``signal`` says whether they are commanded or actual positions (the tolerance);
-    ``offset_mm`` is a known work offset (recorded = program + offset), used as given."""
+    ``offset_mm`` is a known work offset (recorded = program + offset), used as given;
+    ``length_unit`` is the unit the positions were read in (for the hint of a refusal)."""
     q = np.ascontiguousarray(q_mm, dtype=np.float64)
-    if q.ndim != 2 or q.shape[1] != 3 or len(q) < 2:
-        raise MeasuredDataError("need at least two recorded positions to register")
+    if q.ndim != 2 or q.shape[1] != 3:
+        raise UsageError(f"recorded positions must be (m, 3), got {q.shape}")
     if path.n == 0 or path.total_length_mm <= 0:
         return _refused(q, signal, "the program has no motion to register the recording on")
     noise = noise_mm(q)
+    extent = float(np.max(np.ptp(q, axis=0))) if len(q) else 0.0
+    if len(q) < 2 or extent <= max(10.0 * noise, SCALE_FLOOR_MM):
+        return _refused(q, signal, f"the recording does not move ({len(q)} samples within "
+                                   f"{mm_to_um(extent):.3g} um): nothing to place on the program")
     tol = tolerance_mm(q, signal, noise)
     geo = path_geometry(path)
     seeds = signature_candidates(q, path, noise)
     given = None if offset_mm is None else np.asarray(offset_mm, dtype=np.float64)
+    unit = length_unit if hints else None
     if not seeds:
-        return _refused(q, signal, _refusal(q, path, signal, given, None, hints), noise=noise)
-    best_sig = seeds[0].signature
-    passes = sorted(s.s_start_mm for s in seeds if s.signature >= best_sig - PASS_DROP)
+        return _refused(q, signal, _refusal(q, path, signal, given, None, unit), noise=noise)
     evaluated = [_evaluate(q, geo, s, noise, tol, offset=given) for s in seeds]
     cands = [c for c, _, _ in evaluated]
-    order = sorted(range(len(cands)), key=lambda i: (not cands[i].consistent, cands[i].rms_mm
-                                                       + 1e-3 * cands[i].defect_mm))
-    best_i = order[0]
-    best, tr, eig = evaluated[best_i]
+    order = sorted(range(len(cands)), key=lambda i: (not cands[i].consistent,
+                                                     cands[i].rms_mm + 1e-3 * cands[i].defect_mm))
+    best, tr, eig = evaluated[order[0]]
     if not best.consistent:
-        return _refused(q, signal, _refusal(q, path, signal, given, best, hints), noise=noise,
+        return _refused(q, signal, _refusal(q, path, signal, given, best, unit), noise=noise,
                         candidates=tuple(cands))
-    rivals = [cands[i] for i in order[1:] if cands[i].consistent
+    rivals = [i for i in order[1:] if cands[i].consistent
               and np.linalg.norm(cands[i].offset_mm - best.offset_mm) > DISTINCT_OFFSET_MM
               and _fits_as_well(cands[i], best, noise)]
-
-    rest_note = False
+    source = offset_source if given is not None else "fitted"
     if given is None:
-        pinned = rest_offset_mm(q, path, tr.s, noise)
+        pinned, where = rest_offset_mm(q, path, tr.s, noise)
         if pinned is not None and np.linalg.norm(pinned - best.offset_mm) <= tol:
             best = replace(best, offset_mm=pinned)
             tr = track(q - pinned, geo, float(tr.s[0]), first_window_mm=FIRST_WINDOW_MM,
                        slack_mm=_slack_mm(noise))
-            rest_note = True
-
-    def pass_of(c: Candidate) -> int:
-        return 1 + int(np.searchsorted(passes, c.s_start_mm - 0.5 * MIN_SEPARATION_MM))
-
-    first, last = _place(path, tr.s[0], int(tr.segment[0])), None
+            source = f"fitted, at rest at the program {where}"
+    mid = len(q) // 2
+    pass_index, n_passes = repeat_index(path, int(tr.segment[mid]))
     k_last = int(np.argmax(tr.s))
-    last = _place(path, float(tr.s[k_last]), int(tr.segment[k_last]))
-    source = offset_source if given is not None else (
-        "fitted, at rest at the program start" if rest_note else "fitted")
+    at_junction = 1e-3 + 3.0 * noise
     common = dict(signal=signal, offset_mm=best.offset_mm, offset_source=source, s_mm=tr.s,
-                  segment=tr.segment, distance_mm=tr.distance, noise_mm=noise, first=first,
-                  last=last, pass_index=pass_of(best), n_passes=max(len(passes), 1),
-                  candidates=tuple(cands))
+                  segment=tr.segment, distance_mm=tr.distance, noise_mm=noise,
+                  first=_place(path, float(tr.s[0]), int(tr.segment[0]), at_junction, +1),
+                  last=_place(path, float(tr.s[k_last]), int(tr.segment[k_last]), at_junction, -1),
+                  pass_index=pass_index, n_passes=n_passes, candidates=tuple(cands))
     if rivals:
-        numbers = sorted({pass_of(best), *(pass_of(c) for c in rivals)})
+        found = sorted([(pass_index, best.offset_mm)]
+                       + [(repeat_index(path, int(evaluated[i][1].segment[mid]))[0],
+                           cands[i].offset_mm) for i in rivals], key=lambda x: x[0])
+        numbers = [n for n, _ in found]
         listed = ", ".join(str(n) for n in numbers[:-1]) + f" and {numbers[-1]}"
-        offsets = "; ".join(_xyz(c.offset_mm) for c in [best, *rivals])
+        offsets = "; ".join(_xyz(o) for _, o in found)
         msg = (f"ambiguous: passes {listed} of the program fit the recording equally "
                f"(work offsets {offsets}); give --work-offset G54=X,Y,Z (or a setup file)")
         return Registration(status="ambiguous", message=msg,
@@ -487,19 +504,29 @@ def register(q_mm, path: Path, *, signal: str = "actual", offset_mm=None,
     if eig is not None and eig[0] < 1e-6:
         notes.append("the recording is straight: its offset along the path is not fixed by "
                      "the geometry (give --work-offset)")
-    msg = (f"registered on {_xyz(best.offset_mm)} mm ({common['offset_source']}), residual "
-           f"{mm_to_um(float(np.sqrt(np.mean(tr.distance ** 2)))):.3g} um rms: "
-           f"{Registration(status='ok', message='', **common).covered()}")
-    return Registration(status="ok", message=msg, notes=tuple(notes), **common)
+    reg = Registration(status="ok", message="", notes=tuple(notes), **common)
+    msg = (f"registered on {_xyz(best.offset_mm)} mm ({source}), residual "
+           f"{mm_to_um(reg.residual_rms_mm):.3g} um rms: {reg.covered()}")
+    return replace(reg, message=msg)
 
 
 def _xyz(v) -> str:
     return "(" + ", ".join(f"{float(x):.6f}" for x in v) + ")"
 
 
-def _place(path: Path, s: float, k: int) -> Place:
+def _place(path: Path, s: float, k: int, tol_mm: float = 0.0, side: int = 0) -> Place:
+    """The place at path length ``s`` on segment ``k``; a place within ``tol_mm`` of a
+    junction is given on the segment on ``side`` of it (+1: the one that starts there, for
+    the first place of a recording; -1: the one that ends there, for the last)."""
+    s0 = float(path.s_start_mm[k])
+    if side > 0 and k + 1 < path.n and s >= s0 + float(path.length_mm[k]) - tol_mm:
+        k, s0 = k + 1, s0 + float(path.length_mm[k])
+        s = max(s, s0)
+    elif side < 0 and k > 0 and s <= s0 + tol_mm:
+        k, s0 = k - 1, s0 - float(path.length_mm[k - 1])
+        s = min(s, s0 + float(path.length_mm[k]))
     length = float(path.length_mm[k])
-    frac = (s - float(path.s_start_mm[k])) / length if length > 0 else 1.0
+    frac = (s - s0) / length if length > 0 else 1.0
     file = path.file_of(k)
     line = int(path.line[k])
     return Place(s_mm=float(s), segment=k, file=file, line=line,
@@ -532,12 +559,13 @@ def _refused(q, signal, message, *, noise=0.0, candidates=()) -> Registration:
                         candidates=tuple(candidates))
 
 
-#: unit factors tried on refused positions, with the option that applies them
-_UNIT_HINTS = tuple((FACTORS["length"][u], f"--unit pos={u}") for u in ("um", "in", "m", "nm"))
+#: length units tried on refused positions, most likely first
+HINT_UNITS = ("mm", "um", "in", "m", "nm")
 
 
-def _refusal(q, path, signal, given, best: Candidate | None, hints: bool) -> str:
-    """The one-line reason a recording cannot be registered, with what to check."""
+def _refusal(q, path, signal, given, best: Candidate | None, unit) -> str:
+    """The one-line reason a recording cannot be registered, with what to check (``unit``: the
+    length unit the positions were read in, or None for no unit and axis trials)."""
     what = "commanded" if signal == "command" else "recorded"
     if given is not None:
         free = register(q, path, signal=signal, hints=False)
@@ -545,11 +573,16 @@ def _refusal(q, path, signal, given, best: Candidate | None, hints: bool) -> str
             return (f"the {what} positions do not follow the program at the given work offset "
                     f"{_xyz(given)} (they do at {_xyz(free.offset_mm)}): check --work-offset "
                     "or the setup file")
-    if hints:
-        for factor, option in _UNIT_HINTS:
+    if unit:
+        read = FACTORS["length"].get(unit, 1.0)
+        for other in HINT_UNITS:
+            factor = FACTORS["length"][other] / read
+            if other == unit or not math.isfinite(factor):
+                continue
             if register(q * factor, path, signal=signal, hints=False).status != "refused":
-                return (f"the {what} positions do not follow the program as read, but do when "
-                        f"scaled by {factor:g}: they look like another unit, give {option}")
+                return (f"the {what} positions do not follow the program as read ({unit}), but "
+                        f"do when scaled by {factor:g}: they look like {other}, give "
+                        f"--unit pos={other}")
         for perm in permutations(range(3)):
             if perm == (0, 1, 2):
                 continue
