@@ -4,10 +4,17 @@
 decides:
 
 * **how to read the measurement** (``fmt="auto"``): ``*.toml`` is published values
-  (``measured.load_measured_summary``, e.g. ``measured/paper_table3.toml``); a CSV whose header
-  has ``X1_ActualPosition`` is a UMich SMART mill file (``measured.load_umich_csv``); any other
-  CSV is a trace in the default convention, with ``columns`` / ``units`` mappings and
-  ``sample_period_s`` when it has no time column (``measured.load_measured_csv``);
+  (``summaryfile.load_measured_summary``, e.g. ``measured/paper_table3.toml``); a CSV whose header
+  has ``X1_ActualPosition`` is a UMich SMART mill file (``measured.load_umich_csv``); one
+  with the KIT wbk columns (``time``, ``pos_x``, ``cmd_pos_x`` ...) is read with that layout;
+  any other CSV is a trace in the default convention, with ``columns`` / ``units`` mappings
+  and ``sample_period_s`` when it has no time column (``measured.load_measured_csv``); a
+  trace sampled faster than ``MIN_PERIOD_S`` is averaged down to it;
+* **where the trace lies on the program** (:func:`register_trace`): its blocks, pass, work
+  offset (from ``work_offsets``, a setup or the machine file, else fitted:
+  :func:`offset_prior`) and each sample's place, from the commanded positions when recorded;
+  a trace that does not follow the program, or runs at an implausible rate, is refused with
+  one line naming what to check;
 * **which diagnosis**: published values against every program (``published.diagnose_summary``,
   base ``axis-only`` by default); a trace against one program (``diagnose.diagnose``, base
   ``full`` by default). A trace that also holds the commanded positions is split
@@ -33,9 +40,9 @@ import numpy as np
 
 from ncsim.errors import MeasuredDataError, UsageError
 from ncsim.gap.effects import PLANNER_EFFECTS, Model, corrected_machine, get_effect
-from ncsim.gap.measured import (MeasuredTrace, detect_preset, load_measured_csv,
-                                load_measured_summary, load_umich_csv)
+from ncsim.gap.measured import MeasuredTrace, detect_preset, load_measured_csv, load_umich_csv
 from ncsim.gap.register import Registration, rate_problem, register
+from ncsim.gap.summaryfile import load_measured_summary
 from ncsim.machine import MachineSpec, dump_machine_toml, load_machine
 
 FORMATS = ("auto", "csv", "kit", "umich", "summary")

@@ -43,7 +43,7 @@ from ncsim.gap.diagnose import EffectFit, ModelCache, RankedFits, combine, defau
 from ncsim.nc.interpret import interpret_file
 from ncsim.gap.iso230 import circular_deviation
 from ncsim.machine import MachineSpec
-from ncsim.gap.measured import MeasuredSummary
+from ncsim.gap.summaryfile import MeasuredSummary
 from ncsim.path import ARC, Path
 
 RADIUS_TOL_MM = 1e-6
