@@ -104,6 +104,8 @@ def test_work_offset_option_and_its_errors(circle_case):
     r = run(prog, "--measured", csv, "--work-offset", "G54=12.5,-7.25,5")   # 2 mm off in Z
     assert r.exit_code == 2 and r.output.count("\n") == 1
     assert "given work offset" in r.output and "--work-offset" in r.output
+    r = run("--measured", csv, "--work-offset", "G54=12.5,-7.25,3")   # no program to place on
+    assert r.exit_code == 2 and "give the program" in r.output
     for bad, words in (("G54=1,2", "three finite numbers"), ("G99=1,2,3", "not a settable"),
                        ("G54", "KEY=VALUE"), ("G54=1,2,nan", "three finite numbers")):
         r = run(prog, "--measured", csv, "--work-offset", bad)

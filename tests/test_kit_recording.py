@@ -73,6 +73,22 @@ def test_covered_blocks_named(result):
     assert "pass 1 of 3" in reg["covered"]
 
 
+def test_model_time_over_the_covered_places(kit):
+    """Each sample's place gives a model's time over what the recording covers: a model that
+    runs the covered path exactly as recorded (its own samples) takes the recorded time."""
+    from ncsim.gap.measured import load_measured_csv
+    from ncsim.gap.pipeline import register_trace
+    from ncsim.machine import load_machine
+    from ncsim.nc.interpret import interpret_file
+    prog, csv = kit
+    m = load_machine("mikron")
+    trace = load_measured_csv(csv)
+    path = interpret_file(prog, m).path
+    reg = register_trace(trace, path, m, {})
+    t = reg.model_time_s(trace.t_s, np.maximum.accumulate(reg.s_mm))
+    assert t[-1] - t[0] == pytest.approx(trace.t_s[-1] - trace.t_s[0], abs=0.02)
+
+
 def test_servo_part_reports_the_lag(result):
     servo = result["servo_part"]
     lags = {e["effect"]: e["lag_ms"] for e in servo["effects"] if e["lag_ms"] is not None}

@@ -179,17 +179,23 @@ def estimate_noise_mm(pos_mm, speed_mm_s, rest_threshold_mm_s) -> float:
     return float(np.median(np.abs(d2)) / 0.6745 / math.sqrt(6.0))
 
 
+def first_time_at_s(place_s_mm, sim_t_s, sim_s_mm) -> np.ndarray:
+    """The first instant a simulation (times ``sim_t_s``, non-decreasing path lengths
+    ``sim_s_mm``) reaches each path length of ``place_s_mm`` (linear between samples; a
+    standstill's repeated lengths are skipped, so a place where it stops maps to its arrival)."""
+    ss = np.asarray(sim_s_mm, dtype=np.float64)
+    first = np.concatenate([[True], np.diff(ss) > 0])
+    return np.interp(place_s_mm, ss[first], np.asarray(sim_t_s, dtype=np.float64)[first])
+
+
 def place_time_shift_s(t_meas_s, speed_meas, place_s_mm, sim_t_s, sim_s_mm, sim_feed_mm_s,
                        threshold_mm_s) -> float:
     """Time shift of a recording whose samples have known places on the path: the median, over
     samples moving in both, of the measured time minus the simulated time at the place (the
     first instant the simulation reaches it). At rest a place does not tell the time; if no
     sample moves, the first sample is matched with the simulation's first visit of its place."""
-    ss = np.asarray(sim_s_mm, dtype=np.float64)
     ts = np.asarray(sim_t_s, dtype=np.float64)
-    # the first instant of each path length: drop the standstills' repeated lengths
-    first = np.concatenate([[True], np.diff(ss) > 0])
-    t_at = np.interp(place_s_mm, ss[first], ts[first])
+    t_at = first_time_at_s(place_s_mm, ts, sim_s_mm)
     v_sim = np.interp(t_at, ts, sim_feed_mm_s)
     moving = (np.asarray(speed_meas) > threshold_mm_s) & (v_sim > threshold_mm_s)
     if not np.any(moving):

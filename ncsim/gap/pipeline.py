@@ -291,6 +291,9 @@ def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
     kind = detect_format(file, fmt)
     cands = _candidates(effects)
     stages("read")
+    if offsets and (kind == "summary" or not programs):
+        raise UsageError("--work-offset and --setup place a trace on a PROGRAM: give the program "
+                         "it was recorded on")
     if kind == "summary":
         from ncsim.gap.published import diagnose_summary
         if not programs:

@@ -45,6 +45,7 @@ import numpy as np
 from scipy.signal import fftconvolve
 
 from ncsim.errors import MeasuredDataError, UsageError
+from ncsim.gap.align import first_time_at_s
 from ncsim.gap.nearest import FORWARD_CHORDS, PathGeometry, path_geometry, track
 from ncsim.geometry import point_at
 from ncsim.path import Path
@@ -56,6 +57,9 @@ TANGENT_HALF_WIDTH_MM = 0.5       # chord tangents over +-0.5 mm (at least 2 ste
 MIN_SIGNATURE = 0.8               # a placement's tangents must agree this well on average
 SIGNATURE_DROP = 0.25             # candidates: peaks within this of the best
 MAX_CANDIDATES = 32
+SCREEN_SAMPLES = 2000             # candidates are screened on this many samples ...
+SCREEN_FACTOR = 10.0              # ... kept within 10 x the best median distance ...
+MAX_REFINED = 8                   # ... and at most 8 of them refined
 MIN_SEPARATION_MM = 1.0           # two placements closer than this along the path are one
 FIRST_WINDOW_MM = 3.0             # where the first sample may lie around its seed
 MAX_FIT_SAMPLES = 50_000          # the offset is fitted on at most this many samples
@@ -157,6 +161,12 @@ class Registration:
     @property
     def s_last_mm(self) -> float:
         return float(np.max(self.s_mm))
+
+    def model_time_s(self, t_s, s_mm) -> np.ndarray:
+        """When a model (e.g. a sampled ``motion.Trace``: times ``t_s``, path lengths ``s_mm``)
+        first reaches each sample's place; ``[-1] - [0]`` is its time over the places the
+        recording covers."""
+        return first_time_at_s(self.s_mm, t_s, s_mm)
 
     def covered(self) -> str:
         """``FILE:LINE (block) at N % to FILE:LINE at M %, pass k of n``."""
@@ -361,6 +371,27 @@ def continuity_defect_mm(q_mm: np.ndarray, s_mm: np.ndarray, noise: float) -> fl
                  + np.sum(np.clip(ds - FORWARD_CHORDS * c - tol, 0.0, None)))
 
 
+def screen_seeds(q, geo, seeds: list[_Seed], noise: float, tol_mm: float, given) -> list[_Seed]:
+    """The seeds worth refining: each is placed once, at its seed (or the given) offset, on at
+    most ``SCREEN_SAMPLES`` samples; those whose median distance is within ``SCREEN_FACTOR``
+    of the best (or within the tolerance) are kept, at most ``MAX_REFINED``, closest first. A
+    raster of a CAM program matches its neighbours' shape nearly as well, but not their place."""
+    if len(seeds) <= 1:
+        return seeds
+    stride = max(1, len(q) // SCREEN_SAMPLES)
+    qs = q[::stride]
+    medians = []
+    for seed in seeds:
+        o = seed.offset_mm if given is None else given
+        tr = track(qs - o, geo, seed.s_start_mm, first_window_mm=FIRST_WINDOW_MM,
+                   slack_mm=_slack_mm(noise))
+        medians.append(float(np.median(tr.distance)))
+    best = min(medians)
+    order = sorted(range(len(seeds)), key=lambda i: medians[i])
+    keep = [i for i in order if medians[i] <= max(SCREEN_FACTOR * best, tol_mm)]
+    return [seeds[i] for i in keep[:MAX_REFINED]]
+
+
 def _evaluate(q, geo, seed: _Seed, noise, tol_mm, offset=None):
     """Refine (unless ``offset`` is given) and score one placement on every sample: the
     candidate, its places and the Hessian's eigenvalues (None for a given offset)."""
@@ -461,7 +492,8 @@ def register(q_mm, path: Path, *, signal: str = "actual", offset_mm=None,
     unit = length_unit if hints else None
     if not seeds:
         return _refused(q, signal, _refusal(q, path, signal, given, None, unit), noise=noise)
-    evaluated = [_evaluate(q, geo, s, noise, tol, offset=given) for s in seeds]
+    evaluated = [_evaluate(q, geo, s, noise, tol, offset=given)
+                 for s in screen_seeds(q, geo, seeds, noise, tol, given)]
     cands = [c for c, _, _ in evaluated]
     order = sorted(range(len(cands)), key=lambda i: (not cands[i].consistent,
                                                      cands[i].rms_mm + 1e-3 * cands[i].defect_mm))
