@@ -205,3 +205,25 @@ def test_a_recording_at_rest_at_the_start_is_pinned_there(notch):
     r = register(np.vstack([lead, moving]), notch["path"], signal="actual")
     assert r.status == "ok" and r.offset_source.startswith("fitted, at rest")
     assert np.max(np.abs(r.offset_mm - OFFSET_MM)) < 1e-6
+
+
+def test_ncsim_gap_refuses_to_guess_the_pass(notch, tmp_path):
+    """Through the command: the ambiguous recording exits 2 with one line; with the work offset
+    of the setup it is diagnosed on pass 2."""
+    from click.testing import CliRunner
+
+    from ncsim.cli.main import cli
+    from ncsim.gap.measured import MeasuredTrace, write_measured_csv
+    sel = rows_of(notch, 9, 0.9, 11, 0.5)
+    csv = tmp_path / "pass2.csv"
+    write_measured_csv(MeasuredTrace(t_s=notch["t"][sel], pos_mm=notch["q"][sel]), csv)
+    args = ["gap", str(notch["prog"]), "--measured", str(csv), "--effects", "transition",
+            "--no-combine"]
+    r = CliRunner().invoke(cli, args)
+    assert r.exit_code == 2 and r.output.count("\n") == 1
+    assert "ambiguous: passes 2 and 3" in r.output
+    offset = ",".join(f"{v:.6f}" for v in OFFSET_MM)
+    r = CliRunner().invoke(cli, args + ["--work-offset", f"G54={offset}"])
+    assert r.exit_code == 0, r.output
+    assert "notch3.mpf:9 (G1 X-10 Y40) at 90 % to notch3.mpf:11 (G1 X20) at 50 %, pass 2 of 3" \
+        in r.output
