@@ -89,6 +89,29 @@ def test_model_time_over_the_covered_places(kit):
     assert t[-1] - t[0] == pytest.approx(trace.t_s[-1] - trace.t_s[0], abs=0.02)
 
 
+def test_at_a_high_rate(kit):
+    """The recording interpolated to 1,000,000 rows (30 kHz): averaged down to 1 ms, it still
+    registers on pass 1 at the known offset."""
+    from ncsim.gap.measured import MeasuredTrace, load_measured_csv
+    from ncsim.gap.pipeline import MIN_PERIOD_S, register_trace
+    from ncsim.machine import load_machine
+    from ncsim.nc.interpret import interpret_file
+    prog, csv = kit
+    m = load_machine("mikron")
+    rec = load_measured_csv(csv)
+    t = np.linspace(rec.t_s[0], rec.t_s[-1], 1_000_000)
+
+    def at(p):
+        return np.column_stack([np.interp(t, rec.t_s, p[:, k]) for k in range(3)])
+
+    fast = MeasuredTrace(t_s=t, pos_mm=at(rec.pos_mm), cmd_pos_mm=at(rec.cmd_pos_mm),
+                         source="kit at 30 kHz").thinned(MIN_PERIOD_S)
+    assert len(fast) == -(-1_000_000 // 30)          # bins of 30 rows (0.99 ms each)
+    reg = register_trace(fast, interpret_file(prog, m).path, m, {})
+    assert np.all(np.abs(reg.offset_mm - KNOWN_OFFSET_MM) <= 5e-3)
+    assert (reg.first.line, reg.last.line, reg.pass_index) == (15, 20, 1)
+
+
 def test_servo_part_reports_the_lag(result):
     servo = result["servo_part"]
     lags = {e["effect"]: e["lag_ms"] for e in servo["effects"] if e["lag_ms"] is not None}

@@ -58,7 +58,8 @@ MIN_SIGNATURE = 0.8               # a placement's tangents must agree this well 
 SIGNATURE_DROP = 0.25             # candidates: peaks within this of the best
 MAX_CANDIDATES = 32
 SCREEN_SAMPLES = 2000             # candidates are screened on this many samples ...
-SCREEN_FACTOR = 10.0              # ... kept within 10 x the best median distance ...
+SCREEN_FACTOR = 10.0              # ... kept within 10 x the best median distance (or within
+SCREEN_FLOOR_MM = 0.1             # 0.1 mm: a seed's offset is only as good as its grid) ...
 MAX_REFINED = 8                   # ... and at most 8 of them refined
 MIN_SEPARATION_MM = 1.0           # two placements closer than this along the path are one
 FIRST_WINDOW_MM = 3.0             # where the first sample may lie around its seed
@@ -374,8 +375,9 @@ def continuity_defect_mm(q_mm: np.ndarray, s_mm: np.ndarray, noise: float) -> fl
 def screen_seeds(q, geo, seeds: list[_Seed], noise: float, tol_mm: float, given) -> list[_Seed]:
     """The seeds worth refining: each is placed once, at its seed (or the given) offset, on at
     most ``SCREEN_SAMPLES`` samples; those whose median distance is within ``SCREEN_FACTOR``
-    of the best (or within the tolerance) are kept, at most ``MAX_REFINED``, closest first. A
-    raster of a CAM program matches its neighbours' shape nearly as well, but not their place."""
+    of the best (or within ``SCREEN_FLOOR_MM`` and the tolerance: a seed offset is only as
+    good as the signature's grid) are kept, at most ``MAX_REFINED``, closest first. A raster
+    of a CAM program matches its neighbours' shape nearly as well, but not their place."""
     if len(seeds) <= 1:
         return seeds
     stride = max(1, len(q) // SCREEN_SAMPLES)
@@ -388,7 +390,7 @@ def screen_seeds(q, geo, seeds: list[_Seed], noise: float, tol_mm: float, given)
         medians.append(float(np.median(tr.distance)))
     best = min(medians)
     order = sorted(range(len(seeds)), key=lambda i: medians[i])
-    keep = [i for i in order if medians[i] <= max(SCREEN_FACTOR * best, tol_mm)]
+    keep = [i for i in order if medians[i] <= max(SCREEN_FACTOR * best, SCREEN_FLOOR_MM, tol_mm)]
     return [seeds[i] for i in keep[:MAX_REFINED]]
 
 
