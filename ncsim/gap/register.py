@@ -18,20 +18,24 @@ length ``s`` of the nearest program point, found once, from geometry alone (no p
    correlation), is 1 where the recorded shape runs along the program. A translation does not
    change tangents, so the peaks of ``C`` are the candidate placements -- one per pass of a
    repeated contour -- each with a seed offset (median of recorded minus program point).
-2. **Refinement** of each candidate: the work offset ``o`` (recorded = program + ``o``) by
-   robust Gauss-Newton point-to-curve fitting (Tukey weights on a MAD scale, the normal-plane
-   projector ``I - t t^T`` as Hessian). The nearest program point of a sample is searched on the
+2. **Refinement** of the candidates whose seed already places the samples close (screened on
+   a subsample): the work offset ``o`` (recorded = program + ``o``) by robust Gauss-Newton
+   point-to-curve fitting (Tukey weights on a MAD scale, annealed from the seed's residual;
+   the normal-plane projector ``I - t t^T`` as Hessian). The nearest program point of a sample is searched on the
    exact lines, arcs and helices, only within a window of path length that starts where the
    previous sample was placed and reaches as far as a few times the chord to it (monotone: a
-   pass below cannot be mixed in, a place visited twice is told apart by order). A given offset
-   (machine or setup file, ``--work-offset``) is used as it is.
+   pass below cannot be mixed in, a place visited twice is told apart by order). A recording
+   at rest at the program's start (or end) point is pinned there (no following or contour
+   error at rest). A given offset (machine or setup file, ``--work-offset``) is used as it is.
 3. **Decision**: a candidate is *consistent* when its median distance is within the noise (or,
    for actual positions, within what a servo's contour error can be), its path position never
    sticks, goes back or skips (``continuity defect``: recorded chord against advance of the
    place). The best consistent one is the registration; another one with a different offset
    that fits as well makes it **ambiguous** (passes that are identical where recorded: a
    work offset must decide); none makes it **refused**, with a hint at the likely cause (unit,
-   columns, offset, program) from trying the usual unit factors and axis swaps.
+   columns, offset, program) from trying the usual unit factors and axis swaps. Passes are
+   numbered by the segment under the middle sample among the program's segments of the same
+   geometry up to a translation (:func:`repeat_index`).
 """
 from __future__ import annotations
 
@@ -65,7 +69,7 @@ MIN_SEPARATION_MM = 1.0           # two placements closer than this along the pa
 FIRST_WINDOW_MM = 3.0             # where the first sample may lie around its seed
 MAX_FIT_SAMPLES = 50_000          # the offset is fitted on at most this many samples
 MAX_ITERATIONS = 60
-SCALE_FLOOR_MM = 1e-4           # robust scale at least 0.1 um (commanded positions are exact)
+SCALE_FLOOR_MM = 1e-4             # robust scale at least 0.1 um (commanded positions are exact)
 TUKEY_C = 4.685
 COMMAND_TOL_MM = 5e-3             # commanded positions follow the program to this (rms 5 um)
 NOISE_FACTOR = 4.0
