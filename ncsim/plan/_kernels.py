@@ -269,9 +269,15 @@ def _piece_time(s0, v0, a0, j, dt, target):
 
 @njit(cache=True)
 def junction_states(piece_t, piece_s, piece_v, piece_a, piece_j, piece_phase, phase_stop,
-                    s_junction, is_knot, knot_time, knot_feed):
+                    s_junction, is_knot, knot_time, knot_feed, knot_dwell):
     """Arrival time, feed and acceleration at every junction, in one merge-like pass over
-    junctions and pieces (both ordered along the path)."""
+    junctions and pieces (both ordered along the path).
+
+    A junction between two knots is passed after the tool leaves the first (its arrival
+    plus its dwell) and before it reaches the second. Inverting s(t) cannot guarantee that
+    where the junction lies at the same s as a knot (blocks without motion next to it): near
+    rest, a rounding of s moves t by microseconds to either side, and a block would start
+    before the one ahead of it ends. Such times are clamped to the knot's, with its state."""
     n1 = s_junction.shape[0]
     t_arr = np.empty(n1)
     v_j = np.zeros(n1)
@@ -294,9 +300,16 @@ def junction_states(piece_t, piece_s, piece_v, piece_a, piece_j, piece_phase, ph
             kk -= 1
         dt = piece_t[kk + 1] - piece_t[kk]
         tau = _piece_time(piece_s[kk], piece_v[kk], piece_a[kk], piece_j[kk], dt, target)
-        t_arr[i] = piece_t[kk] + tau
-        v_j[i] = piece_v[kk] + tau * (piece_a[kk] + tau * piece_j[kk] / 2.0)
-        a_j[i] = piece_a[kk] + tau * piece_j[kk]
+        t = piece_t[kk] + tau
+        leave = knot_time[ki - 1] + knot_dwell[ki - 1]   # junction 0 is a knot: ki >= 1
+        if t <= leave:
+            t_arr[i], v_j[i] = leave, knot_feed[ki - 1]
+        elif t >= knot_time[ki]:                          # the last junction is a knot
+            t_arr[i], v_j[i] = knot_time[ki], knot_feed[ki]
+        else:
+            t_arr[i] = t
+            v_j[i] = piece_v[kk] + tau * (piece_a[kk] + tau * piece_j[kk] / 2.0)
+            a_j[i] = piece_a[kk] + tau * piece_j[kk]
     return t_arr, v_j, a_j
 
 

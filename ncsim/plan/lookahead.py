@@ -397,7 +397,8 @@ def _pieces_and_junctions(sol, s_junction, knot_reason, cap_limit, junction_limi
     is_knot[knots] = True
     knot_time = np.concatenate([[0.0], sec_end_t])
     t_arr, v_j, a_j = junction_states(times, s0, v0, a0, jj, ph, int(Phase.STOP),
-                                      s_junction, is_knot, knot_time, sol["v_knot"])
+                                      s_junction, is_knot, knot_time, sol["v_knot"],
+                                      np.ascontiguousarray(dwell[knots], dtype=np.float64))
     return pieces, t_arr, v_j, a_j
 
 
