@@ -2,7 +2,8 @@
 
 Every error renders as a single line that names where the problem is:
 
-* program errors:   ``FILE:LINE:COL: message``
+* program errors:   ``FILE:LINE:COL: message`` (``FILE: message`` when no line applies, e.g. a
+  file that cannot be read)
 * TOML files (machine, setup, published values; ``ncsim.config``): ``FILE: key.path: message``
 * measured data:    ``FILE:LINE: message`` or ``FILE: column 'x': message``
 
@@ -20,6 +21,7 @@ class ExitStatus(IntEnum):
     OK = 0
     CHECK_FAILED = 1  # `ncsim check`: a threshold does not hold
     BAD_INPUT = 2     # unreadable program, machine, trace or option
+    INTERRUPTED = 130  # Ctrl-C (128 + SIGINT, as shells report it)
 
 
 class NcsimError(Exception):
@@ -42,6 +44,8 @@ class NcError(NcsimError):
         self.column = column
 
     def render(self) -> str:
+        if self.line <= 0:  # about the whole file (unreadable, empty): no position to name
+            return f"{self.file}: {self.message}"
         return f"{self.file}:{self.line}:{self.column}: {self.message}"
 
     def __str__(self) -> str:  # so that pytest.raises(match=...) sees the location too
@@ -124,4 +128,18 @@ class NcWarning:
     column: int = 0
 
     def render(self) -> str:
+        if self.line <= 0:  # about the whole program (no motion, no end): no position to name
+            return f"{self.file}: warning: {self.message}"
         return f"{self.file}:{self.line}:{self.column}: warning: {self.message}"
+
+
+@dataclass(frozen=True, slots=True)
+class ConfigWarning:
+    """A value in a TOML file that is accepted but looks wrong (e.g. in the wrong unit)."""
+
+    message: str
+    file: str
+    key: str
+
+    def render(self) -> str:
+        return f"{self.file}: {self.key}: warning: {self.message}"

@@ -196,7 +196,7 @@ def test_dwell_seconds_revolutions_and_end_dwell():
 
 
 def test_dwell_with_unknown_spindle_speed_warns():
-    r = run("G1 X1 F100\nG4 S10\nX2\n")
+    r = run("G1 X1 F100\nG4 S10\nX2\nM30\n")
     assert seg(r, 1).dwell_before_s == 0.0
     assert [(w.line, "spindle speed unknown" in w.message) for w in r.warnings] == [(2, True)]
 
@@ -231,7 +231,7 @@ def test_lower_case_and_crlf():
 
 def test_cycle832_and_modes_recorded_with_lines():
     r = run("DEF REAL _TOL=0.02\nCYCLE832(_TOL,1,1)\nG1 X1 F100\nCOMPCAD\nDYNFINISH\nMSG(\"finish\")\nX2\n"
-            "COMPOF DYNNORM\n")
+            "COMPOF DYNNORM\nM30\n")
     assert [(c.name, c.args, c.line, c.segment_index) for c in r.cycle832_calls] == [("CYCLE832", (0.02, 1.0, 1.0), 2, 0)]
     assert [(c.name, c.line, c.segment_index) for c in r.mode_changes] == [
         ("COMPCAD", 4, 1), ("DYNFINISH", 5, 1), ("COMPOF", 8, 2), ("DYNNORM", 8, 2)]

@@ -63,6 +63,11 @@ CASES = [
     ("frame with motion", "G1 TRANS X1\n", NcSemanticError, 1, 4, "TRANS must be programmed in a block without motion"),
     ("g4 without time", "G4\n", NcSemanticError, 1, 1, "G4 needs either F (seconds) or S (spindle revolutions)"),
     ("huge value", "R1=99999*99999\nG1 X=R1 F100\n", NcSemanticError, 2, 4, "out of range"),
+    # a REAL overflows: 1e9^34 = 1e306 is still one, 1e310 no more (DIV once gave a traceback)
+    ("DIV overflow", "R1=1000000000\nR2=" + "*".join(["R1"] * 34) + " DIV 0.0001\n", NcSemanticError,
+     2, 106, "result of 1e+306 DIV 0.0001 is out of the range of a REAL"),
+    ("product overflow", "R1=1000000000\nR2=" + "*".join(["R1"] * 35) + "\n", NcSemanticError,
+     2, 105, "result of 1e+306 * 1000000000 is out of the range of a REAL"),
     ("system variable", "R1=$AA_IM[X]\n", NcUnsupportedError, 1, 4, "reading system variable $AA_IM is not simulated"),
     ("polar", "G1 AP=45 RP=10 F100\n", NcUnsupportedError, 1, 4, "polar coordinates"),
     ("jump into for", "G1 F100\nGOTOF IN\nFOR R1=1 TO 2\nIN: X1\nENDFOR\n", NcSemanticError, 5, 1,
@@ -108,3 +113,13 @@ def test_budget_inside_a_plain_run_is_hit_at_its_line():
     prog = "G1 F100\nTOP:\n" + "".join(f"X{i}\n" for i in range(1, 40)) + "GOTOB TOP\n"
     with pytest.raises(NcSemanticError, match=r"run.mpf:19:1: block budget of 100 blocks"):
         interpret_text(prog, "run.mpf", block_budget=100)
+
+
+def test_a_word_too_long_for_a_file_name_is_an_unknown_word(tmp_path):
+    """A 300-character word is looked up as a subprogram file; the file system refuses such a
+    name (ENAMETOOLONG), which was a traceback."""
+    word = "POCKET" + "Q" * 300
+    with pytest.raises(NcSemanticError) as info:
+        interpret_text(f"G1 X1 F100\n{word}\nM30\n", "long.mpf", search_dir=tmp_path)
+    assert (info.value.line, info.value.column) == (2, 1)
+    assert info.value.message.startswith(f"unknown word {word} (no such command")

@@ -101,14 +101,14 @@ def test_rotated_arc_keeps_its_direction_in_its_rotated_plane():
 
 def test_g54_offsets_from_setup_override_machine(mikron):
     machine = dataclasses.replace(mikron, work_offsets_mm=(("G54", (1.0, 2.0, 3.0)), ("G55", (7.0, 0.0, 0.0))))
-    e, r = ends("G54 G1 X1 Y0 Z0 F100\nG55 X1 Y0 Z0\nG500 X1 Y0 Z0\n", machine=machine,
+    e, r = ends("G54 G1 X1 Y0 Z0 F100\nG55 X1 Y0 Z0\nG500 X1 Y0 Z0\nM30\n", machine=machine,
                 setup_offsets={"G55": (0.0, 9.0, 0.0)})
     assert e == [[2, 2, 3], [1, 9, 0], [1, 0, 0]]
     assert r.warnings == ()
 
 
 def test_missing_work_offset_warns_and_uses_zero():
-    e, r = ends("G54 G1 X1 F100\n")
+    e, r = ends("G54 G1 X1 F100\nM30\n")
     assert e == [[1, 0, 0]]
     assert [(w.line, w.column) for w in r.warnings] == [(1, 1)] and "G54" in r.warnings[0].message
 

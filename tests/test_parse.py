@@ -40,6 +40,26 @@ def test_crlf_and_missing_final_newline():
     assert list(parse_text("G1 X1\r\nX2").blocks()) == list(parse_text("G1 X1\nX2").blocks())
 
 
+def test_a_lone_cr_ends_a_block_too():
+    """Old Mac editors and some DNC links end lines with CR alone: four blocks, not one."""
+    cr = parse_text("N10 G1 X10 F1000 ; first cut\rN20 G1 X0 Y50\rN30 G1 Z-5\rM30\r")
+    assert cr.n_lines == 4
+    assert list(cr.blocks()) == list(parse_text("N10 G1 X10 F1000 ; first cut\nN20 G1 X0 Y50\n"
+                                                "N30 G1 Z-5\nM30\n").blocks())
+    assert parse_text("G1 X1\r\rX2\r\n").n_lines == 3      # CR CR: an empty line between
+
+
+def test_a_byte_order_mark_is_not_a_character_of_the_program(tmp_path):
+    bom = tmp_path / "bom.mpf"
+    bom.write_bytes(b"\xef\xbb\xbfG1 X10 F1000\nM30\n")
+    latin = tmp_path / "latin.mpf"     # a BOM before Latin-1 text (no UTF-8 after all)
+    latin.write_bytes(b"\xef\xbb\xbfG1 X10 F1000 ; Sp\xe4ne\nM30\n")
+    plain = list(parse_text("G1 X10 F1000\nM30\n").blocks())
+    assert list(parse_file(bom).blocks()) == plain
+    assert list(parse_file(latin).blocks()) == plain
+    assert list(parse_text("\ufeffG1 X10 F1000\nM30\n").blocks()) == plain
+
+
 def test_syntax_error_line_in_a_long_program():
     with pytest.raises(NcSyntaxError, match=r"^p.mpf:5:4: unexpected"):
         parse_text("X1\nX2\nX3\nX4\nX5 )\n", "p.mpf")

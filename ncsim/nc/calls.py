@@ -80,7 +80,7 @@ class Calls:
             return None
         for suffix in SUBPROGRAM_SUFFIXES:
             candidate = state.search_dir / f"{name}{suffix}"
-            if candidate.is_file():
+            if _is_file(candidate):
                 program = parse_text(read_program_text(candidate), str(candidate), fast=state.fast)
                 units = split_units(program, name)
                 self.add_units(units[1:])
@@ -176,3 +176,12 @@ class Calls:
         elif any(name == "GOTOS" for name, _ in ctx.commands):
             fr = ctx.frame
             fr.pc, fr.row = (1 if is_proc(fr.unit) else 0), 0
+
+
+def _is_file(path) -> bool:
+    """Whether ``path`` is a readable file; a name the file system cannot hold (longer than
+    its limit, e.g. a 300-character word taken as a subprogram name) is no file."""
+    try:
+        return path.is_file()
+    except OSError:
+        return False

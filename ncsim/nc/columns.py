@@ -20,7 +20,7 @@ from ncsim.geometry import PLANE_AXES
 from ncsim.nc import program as P
 from ncsim.nc.context import WORD_VALUE_LIMIT
 from ncsim.nc.frames import arc_normal
-from ncsim.nc.moves import arc_columns, circle_error_mm, circle_tolerance_mm
+from ncsim.nc.moves import MIN_LINE_MM, arc_columns, circle_error_mm, circle_tolerance_mm
 from ncsim.path import ARC
 from ncsim.units import mm_min_to_mm_s
 
@@ -108,7 +108,7 @@ class ColumnPath:
         if is_arc.any():
             if not self._arcs(run, rows, motion, is_arc, present, wcs_start, mcs_start, mcs_end, cols):
                 return None
-        keep = is_arc | (cols["length_mm"] > 0.0)
+        keep = is_arc | (cols["length_mm"] > MIN_LINE_MM)
         rapid = motion[rows] == 0
         return run.first_line + rows, keep, cols, rapid, feed[rows], wcs_end, mcs_end
 

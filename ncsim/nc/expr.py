@@ -181,22 +181,23 @@ def _binop(expr: P.BinOp, a: Value, b: Value, where: Where) -> Value:
         return 1.0 if result else 0.0
     x = _number_operand(a, op, expr.col, where)
     y = _number_operand(b, op, expr.col, where)
-    if op == "+":
-        return x + y
-    if op == "-":
-        return x - y
-    if op == "*":
-        return x * y
-    if op in ("/", "DIV", "MOD"):
-        if y == 0.0:
-            raise where.error(f"division by zero ({op})", expr.col)
-        if op == "/":
-            return x / y
-        if op == "DIV":
-            return float(math.trunc(x / y))
-        return math.fmod(x, y)
-    ix, iy = int(x), int(y)
-    return float({"B_AND": ix & iy, "B_OR": ix | iy, "B_XOR": ix ^ iy}[op])
+    if op in ("B_AND", "B_OR", "B_XOR"):
+        ix, iy = int(x), int(y)
+        return float({"B_AND": ix & iy, "B_OR": ix | iy, "B_XOR": ix ^ iy}[op])
+    if op in ("/", "DIV", "MOD") and y == 0.0:
+        raise where.error(f"division by zero ({op})", expr.col)
+    result = _ARITHMETIC[op](x, y)
+    if not math.isfinite(result):  # a REAL overflows (the 840D stops with an alarm too)
+        raise where.error(f"result of {format_value(x)} {op} {format_value(y)} is out of the "
+                          "range of a REAL", expr.col)
+    return float(result)
+
+
+_ARITHMETIC = {
+    "+": lambda x, y: x + y, "-": lambda x, y: x - y, "*": lambda x, y: x * y,
+    "/": lambda x, y: x / y, "MOD": math.fmod,
+    "DIV": lambda x, y: q if not math.isfinite(q := x / y) else math.trunc(q),
+}
 
 
 def _call(expr: P.Func, scope: Scope, where: Where) -> Value:

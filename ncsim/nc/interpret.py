@@ -23,7 +23,9 @@ check |r_end - r_start| <= max(MD21000, MD21010 * r_start); the frame chain of
 arcs. Internal units: mm, s, rad (F mm/min -> mm/s and inch -> mm happen here, once).
 
 The tool starts at the machine origin (0, 0, 0). A motion block whose end equals its start
-makes no segment (a full circle G2/G3 does). ``stop_before`` marks: an M or H output in the
+makes no segment (a full circle G2/G3 does; nor does a line that only rounding makes,
+``moves.MIN_LINE_MM``). A main program that runs off its last line without M30/M2/M17 is
+``complete=False`` and warns (truncated?), as does a program without motion. ``stop_before`` marks: an M or H output in the
 block or since the last segment, STOPRE, a change of SOFT/BRISK/DRIVE, a G4 dwell, and a
 change between rapid and feed motion; S, T, D and F changes do not stop.
 
@@ -97,6 +99,7 @@ class InterpretResult:
     warnings: tuple[NcWarning, ...]
     blocks_executed: int
     recorded: tuple[RecordedCall, ...] = ()
+    complete: bool = True   # ended by M2/M30 (or M17/RET), not by running off its last line
 
     @property
     def cycle832_calls(self) -> tuple[RecordedCall, ...]:
@@ -153,6 +156,7 @@ class Interpreter:
         self.settings = Settings(state)
         self.moves = Moves(state)
         self.columns = ColumnPath(state)
+        self.ran_off_end = False     # the main program ran past its last line
 
     def run(self, program: P.Program) -> InterpretResult:
         state = self.state
@@ -169,13 +173,26 @@ class Interpreter:
         state.out.flush()
         builder = state.out.builder
         builder.end_dwell_s = state.st.pending_dwell_s
-        return InterpretResult(builder.build(), state.warnings.result(), state.blocks,
-                               tuple(state.recorded))
+        path = builder.build()
+        complete = state.ended or not self.ran_off_end
+        self._warn_empty(program, path.n, complete)
+        return InterpretResult(path, state.warnings.result(), state.blocks,
+                               tuple(state.recorded), complete)
+
+    def _warn_empty(self, program: P.Program, n_segments: int, complete: bool) -> None:
+        """An export cut short or empty is a warning, never a silent zero cycle time."""
+        warnings = self.state.warnings
+        if not complete:
+            warnings.add("end", "the program ends without M30, M2 or M17 (truncated?)",
+                         program.file, program.n_lines)
+        if n_segments == 0:
+            warnings.add("motion", "no motion: the program moves no axis", program.file, 0)
 
     def step(self, fr) -> None:
         """Execute the next item of the frame ``fr``: a block, or a run of plain blocks."""
         items = fr.unit.items
         if fr.pc >= len(items):
+            self.ran_off_end = self.ran_off_end or len(self.state.stack) == 1
             self.calls.return_()
             return
         item = items[fr.pc]

@@ -14,7 +14,9 @@ data", "Path action"):
 * SUPA/G53/G153 suppress the frames for one block (:mod:`ncsim.nc.frames`), MIRROR reverses arcs;
 * G4 F<s> dwells seconds, G4 S<n> spindle revolutions; it stops the path.
 
-A motion block whose end equals its start makes no segment (a full circle does). A segment
+A motion block whose end equals its start makes no segment (a full circle does); so does a
+line shorter than ``MIN_LINE_MM`` (1e-9 mm, far below the 840D's position resolution MD10200
+$MN_INT_INCR_PER_MM), which only rounding makes, e.g. ``AROT`` then ``X=IC(0)``. A segment
 stops before it (``stop_before``) after an M or H output, STOPRE, a change of SOFT/BRISK/DRIVE
 or a dwell since the last segment, or on a change between rapid and feed motion.
 
@@ -38,6 +40,7 @@ from ncsim.nc.words import AXES, CENTRE, INTER
 from ncsim.path import ARC, LINE
 
 FULL_CIRCLE_TOL_MM = 1e-9    # an arc whose end is this close to its start is a full circle
+MIN_LINE_MM = 1e-9           # a shorter line is rounding (a frame applied to an unchanged point)
 TWO_PI = 2.0 * math.pi
 _NAN3 = (math.nan, math.nan, math.nan)
 _ZERO3 = (0.0, 0.0, 0.0)
@@ -222,7 +225,7 @@ class Moves:
         start = self.st.pos_mcs
         dx, dy, dz = mcs[0] - start[0], mcs[1] - start[1], mcs[2] - start[2]
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
-        if length > 0.0:
+        if length > MIN_LINE_MM:
             self._emit(ctx, LINE, start, mcs, _NAN3, _ZERO3, math.nan, 0.0, 0.0, length, rapid)
         self.st.pos_wcs, self.st.pos_mcs = wcs, mcs
 

@@ -13,6 +13,7 @@ Every syntax error is one :class:`~ncsim.errors.NcSyntaxError` at ``FILE:LINE:CO
 """
 from __future__ import annotations
 
+import codecs
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path as FsPath
@@ -316,8 +317,11 @@ def parse_block(text: str, line: int = 1, file: str = "<string>") -> P.Block:
 
 
 def normalize_newlines(text: str) -> str:
-    """CR LF -> LF (a lone CR stays and is whitespace to the grammar)."""
-    return text.replace("\r\n", "\n") if "\r" in text else text
+    """CR LF and a lone CR (old Mac editors, some DNC links) -> LF: every one ends a block.
+    A leading byte-order mark (Windows editors) is dropped."""
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    return text.replace("\r\n", "\n").replace("\r", "\n") if "\r" in text else text
 
 
 def parse_text(text: str, file: str = "<string>", *, fast: bool = True) -> P.Program:
@@ -340,6 +344,8 @@ def read_program_text(path: str | FsPath) -> str:
         data = p.read_bytes()
     except OSError as exc:
         raise NcError(f"cannot read program: {exc.strerror}", str(path), 0, 0) from None
+    if data.startswith(codecs.BOM_UTF8):
+        data = data[len(codecs.BOM_UTF8):]
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError:
