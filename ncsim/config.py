@@ -23,12 +23,13 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import tomllib
 from importlib.resources.abc import Traversable
 from pathlib import Path as FsPath
 from typing import Any, Callable
 
-from ncsim.errors import ConfigError, MachineSpecError
+from ncsim.errors import ConfigError, ConfigWarning, MachineSpecError
 
 ErrorClass = Callable[..., Exception]   # called as cls(message, file=..., key=...)
 
@@ -98,6 +99,19 @@ def finite(v: float) -> str | None:
     return None if math.isfinite(v) else "must be a finite number"
 
 
+def between(lo: float, hi: float, unit: str) -> Callable[[float], str | None]:
+    """A check for ``lo <= v <= hi`` (in the file's ``unit``): the physically possible range
+    of a key, wide enough for any real machine, narrow enough that no arithmetic on it
+    overflows or divides by (almost) zero."""
+    def check(v: float) -> str | None:
+        return None if lo <= v <= hi else f"must be between {lo:g} and {hi:g} {unit}".rstrip()
+    return check
+
+
+#: |coordinate| of a work offset: the 840D's input range for positions (+-999 999 999.9999)
+MAX_OFFSET_MM = 1e9
+
+
 def is_number(v: object) -> bool:
     """An int or a float, but not a bool (TOML ``true`` is no number)."""
     return isinstance(v, (int, float)) and not isinstance(v, bool)
@@ -117,6 +131,7 @@ class Problems:
         self.file = file
         self.error = error
         self.items: list[tuple[str, str]] = []
+        self.warnings: list[ConfigWarning] = []
 
     def __bool__(self) -> bool:
         return bool(self.items)
@@ -180,15 +195,16 @@ class Problems:
         return convert(value)
 
     def integer(self, table: dict, prefix: str, key: str, *, required: bool = False,
-                minimum: int = 1) -> int | None:
+                minimum: int = 1, maximum: int | None = None) -> int | None:
         found = self._lookup(table, prefix, key, required)
         if found is None:
             return None
         full, value = found
         if isinstance(value, bool) or not isinstance(value, int):
             self.add(full, f"must be an integer, got {type(value).__name__} {value!r}")
-        elif value < minimum:
-            self.add(full, f"must be an integer >= {minimum}")
+        elif value < minimum or (maximum is not None and value > maximum):
+            self.add(full, f"must be an integer >= {minimum}" if maximum is None else
+                     f"must be an integer from {minimum} to {maximum}, got {value}")
         else:
             return value
         return None
@@ -212,13 +228,21 @@ class Problems:
         return None
 
     def xyz_mm(self, table: dict, prefix: str, key: str) -> tuple[float, float, float] | None:
-        """A point ``[x_mm, y_mm, z_mm]`` of three finite numbers."""
+        """A point ``[x_mm, y_mm, z_mm]`` of three finite numbers within ``MAX_OFFSET_MM``."""
         value = table.get(key)
-        if (not isinstance(value, list) or len(value) != 3 or not all(is_number(v) for v in value)
-                or not all(math.isfinite(v) for v in value)):
+        if not isinstance(value, list) or len(value) != 3 or not all(is_number(v) for v in value):
             self.add(key_path(prefix, key), "must be a list of three numbers [x_mm, y_mm, z_mm]")
             return None
+        if not all(abs(v) < MAX_OFFSET_MM for v in value):   # also NaN and inf
+            shown = ", ".join(f"{float(v):g}" for v in value)
+            self.add(key_path(prefix, key), f"must be three finite numbers of magnitude below "
+                     f"{MAX_OFFSET_MM:g} mm (the 840D's position range), got [{shown}]")
+            return None
         return tuple(float(v) for v in value)
+
+    def warn(self, key: str, message: str) -> None:
+        """Note a value that is accepted but looks wrong (:class:`ConfigWarning`)."""
+        self.warnings.append(ConfigWarning(message, self.file, key))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -226,10 +250,12 @@ class Problems:
 # ---------------------------------------------------------------------------------------------
 
 def is_settable_offset(name: str) -> bool:
-    """G54..G57 and the extended settable frames G505..G599 (840D settable zero offsets)."""
-    if not name.startswith("G") or not name[1:].isdigit():
+    """G54..G57 and the extended settable frames G505..G599 (840D settable zero offsets),
+    spelled as the interpreter names them (``G054`` would never be applied)."""
+    match = re.fullmatch(r"G([1-9][0-9]*)", name)
+    if match is None:
         return False
-    code = int(name[1:])
+    code = int(match.group(1))
     return 54 <= code <= 57 or 505 <= code <= 599
 
 
@@ -241,7 +267,11 @@ def setup_from_dict(data: dict[str, Any], file: str = "<setup>") -> dict[str, tu
     offsets = {}
     for key in table:
         if not is_settable_offset(key):
-            problems.add(f"work_offsets.{key}", "unknown work offset (use G54..G57 or G505..G599)")
+            canonical = re.fullmatch(r"[Gg]0*([1-9][0-9]*)", key)
+            hint = f"write G{canonical.group(1)}; " if canonical and is_settable_offset(
+                f"G{canonical.group(1)}") else ""
+            problems.add(f"work_offsets.{key}", f"unknown work offset ({hint}use G54..G57 or "
+                         "G505..G599)")
             continue
         value = problems.xyz_mm(table, "work_offsets", key)
         if value is not None:

@@ -14,8 +14,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ncsim.config import Problems, non_negative, open_share, positive, read_toml, share, share0
-from ncsim.errors import MachineSpecError
+from ncsim.config import Problems, between, is_number, open_share, read_toml, share, share0
+from ncsim.errors import ConfigWarning, MachineSpecError
 from ncsim.units import (m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_s2_to_m_s2, mm_s3_to_m_s3,
                          mm_s_to_m_min, ms_to_s, s2_to_um_per_m_s2, s_to_ms, um_per_m_s2_to_s2)
 
@@ -69,6 +69,8 @@ class MachineSpec:
     source: str = "<machine>"
     work_offsets_mm: tuple[tuple[str, tuple[float, float, float]], ...] = ()
     structure: StructureSpec = field(default_factory=StructureSpec)
+    #: values accepted but unusual (likely in the wrong unit), from the file's reader
+    warnings: tuple[ConfigWarning, ...] = field(default=(), compare=False)
 
     def axis(self, name: str) -> AxisSpec:
         for a in self.axes:
@@ -121,35 +123,65 @@ def _ro(a: np.ndarray) -> np.ndarray:
 # Loading and validation (through ncsim.config: one reader, one error policy)
 # ---------------------------------------------------------------------------------------------
 
-# (toml key, spec field, required, check, converter to internal units)
+# (toml key, spec field, required, check, converter to internal units). The ranges are what
+# is physically possible, with a wide margin around every real machine; inside them no
+# arithmetic of the planner overflows or divides by (almost) zero. What is possible but
+# unusual (often a value in the wrong unit) is a warning: see _USUAL below.
 _AXIS_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
-    ("max_velocity_m_min", "max_velocity_mm_s", True, positive, m_min_to_mm_s),
-    ("max_accel_m_s2", "max_accel_mm_s2", True, positive, m_s2_to_mm_s2),
-    ("max_jerk_m_s3", "max_jerk_mm_s3", True, positive, m_s3_to_mm_s3),
-    ("position_gain_1_s", "position_gain_1_s", False, positive, float),
+    ("max_velocity_m_min", "max_velocity_mm_s", True, between(1e-3, 1e6, "m/min"), m_min_to_mm_s),
+    ("max_accel_m_s2", "max_accel_mm_s2", True, between(1e-3, 1e6, "m/s^2"), m_s2_to_mm_s2),
+    ("max_jerk_m_s3", "max_jerk_mm_s3", True, between(1e-3, 1e9, "m/s^3"), m_s3_to_mm_s3),
+    ("position_gain_1_s", "position_gain_1_s", False, between(1e-2, 1e4, "1/s"), float),
 )
 
+MAX_LOOKAHEAD_BLOCKS = 100_000   # MD28060 $MC_MM_IPO_BUFFER_SIZE is in the hundreds
+
 _NCU_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
-    ("ipo_cycle_ms", "ipo_cycle_s", True, positive, ms_to_s),
-    ("curvilinear_jerk_m_s3", "curvilinear_jerk_mm_s3", True, positive, m_s3_to_mm_s3),
+    ("ipo_cycle_ms", "ipo_cycle_s", True, between(1e-3, 1e5, "ms"), ms_to_s),
+    ("curvilinear_jerk_m_s3", "curvilinear_jerk_mm_s3", True, between(1e-3, 1e9, "m/s^3"),
+     m_s3_to_mm_s3),
     ("tangential_jerk_share", "tangential_jerk_share", True, share, float),
     ("central_jerk_share", "central_jerk_share", True, share0, float),
-    ("transition_time_ms", "transition_time_s", True, positive, ms_to_s),
-    ("lookahead_blocks", "lookahead_blocks", True, None, int),   # an integer >= 1
+    ("transition_time_ms", "transition_time_s", True, between(1e-3, 1e5, "ms"), ms_to_s),
+    ("lookahead_blocks", "lookahead_blocks", True, None, int),   # 1..MAX_LOOKAHEAD_BLOCKS
     ("normal_accel_share", "normal_accel_share", False, open_share, float),
-    ("corner_velocity_jump_factor", "corner_velocity_jump_factor", False, positive, float),
-    ("exact_stop_fine_settle_ms", "exact_stop_fine_settle_s", False, non_negative, ms_to_s),
-    ("exact_stop_coarse_settle_ms", "exact_stop_coarse_settle_s", False, non_negative, ms_to_s),
+    ("corner_velocity_jump_factor", "corner_velocity_jump_factor", False,
+     between(1e-6, 1000.0, ""), float),
+    ("exact_stop_fine_settle_ms", "exact_stop_fine_settle_s", False, between(0.0, 1e5, "ms"),
+     ms_to_s),
+    ("exact_stop_coarse_settle_ms", "exact_stop_coarse_settle_s", False,
+     between(0.0, 1e5, "ms"), ms_to_s),
     ("drive_speed_point_ratio", "drive_speed_point_ratio", False, share, float),
     ("drive_accel_reduction_ratio", "drive_accel_reduction_ratio", False, share0, float),
-    ("circle_error_const_mm", "circle_error_const_mm", False, positive, float),
-    ("circle_error_factor", "circle_error_factor", False, non_negative, float),
+    ("circle_error_const_mm", "circle_error_const_mm", False, between(1e-9, 1000.0, "mm"), float),
+    ("circle_error_factor", "circle_error_factor", False, share0, float),
 )
 
 _STRUCTURE_KEYS = (
-    ("radial_compliance_um_per_m_s2", "radial_compliance_mm_per_mm_s2", False, non_negative,
-     um_per_m_s2_to_s2),
+    ("radial_compliance_um_per_m_s2", "radial_compliance_mm_per_mm_s2", False,
+     between(0.0, 1e4, "um/(m/s^2)"), um_per_m_s2_to_s2),
 )
+
+#: key -> (usual low, usual high, unit, [(unit it may be in, factor to the key's unit)]):
+#: values of real machine tools (840D machine data defaults and manufacturers' data); outside
+#: them a value is accepted with a warning that names the unit it looks like
+_USUAL: dict[str, tuple[float, float, str, tuple[tuple[str, float], ...]]] = {
+    "max_velocity_m_min": (0.5, 300.0, "m/min", (("mm/min", 1e-3), ("m/s", 60.0))),
+    "max_accel_m_s2": (0.05, 100.0, "m/s^2", (("mm/s^2", 1e-3),)),
+    "max_jerk_m_s3": (0.5, 1e5, "m/s^3", (("mm/s^3", 1e-3),)),
+    "curvilinear_jerk_m_s3": (0.5, 1e5, "m/s^3", (("mm/s^3", 1e-3),)),
+    "position_gain_1_s": (5.0, 300.0, "1/s", (("(m/min)/mm as MD32200 is entered", 1000.0 / 60.0),)),
+    "ipo_cycle_ms": (0.25, 50.0, "ms", (("s", 1e3), ("us", 1e-3))),
+    "transition_time_ms": (0.25, 200.0, "ms", (("s", 1e3), ("us", 1e-3))),
+    "exact_stop_fine_settle_ms": (0.0, 1000.0, "ms", (("us", 1e-3),)),
+    "exact_stop_coarse_settle_ms": (0.0, 1000.0, "ms", (("us", 1e-3),)),
+}
+#: a jerk that reaches the axis acceleration within this share of the IPO cycle acts on no
+#: interpolation cycle: most likely 1000x too large (mm/s^3 in an m/s^3 key)
+_JERK_RAMP_MIN_CYCLES = 0.05
+#: one jerk of a machine (axes, path) this many times off all the others: likely in another
+#: unit (real machines' axis jerks differ by 10x or so, e.g. the paper's Table 1)
+_JERK_SPREAD = 100.0
 
 
 def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineSpec:
@@ -186,7 +218,8 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
     ncu_values = {}
     for k, f, req, chk, conv in _NCU_KEYS:
         if conv is int:
-            v = c.integer(ntab, "ncu", k, required=req and "ncu" in data)
+            v = c.integer(ntab, "ncu", k, required=req and "ncu" in data,
+                          maximum=MAX_LOOKAHEAD_BLOCKS)
         else:
             v = c.number(ntab, "ncu", k, required=req and "ncu" in data, check=chk, convert=conv)
         if v is not None:
@@ -210,9 +243,66 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
             svalues[f] = v
 
     c.raise_if_any()
+    _unusual_values(c, {f"axes.{a}": atab[a] for a in AXIS_NAMES} | {"ncu": ntab})
     return MachineSpec(name=name, description=description, axes=tuple(axes),
                        ncu=NcuSpec(**ncu_values), source=file,
-                       work_offsets_mm=tuple(offsets), structure=StructureSpec(**svalues))
+                       work_offsets_mm=tuple(offsets), structure=StructureSpec(**svalues),
+                       warnings=tuple(c.warnings))
+
+
+def _unusual_values(c: Problems, tables: dict[str, dict]) -> None:
+    """Warn about valid values outside the usual range of real machines (``_USUAL``), naming
+    the unit they look like; and about an axis jerk that reaches the axis acceleration within
+    a fraction of an interpolation cycle (1000x too large, e.g. mm/s^3)."""
+    for prefix, table in tables.items():
+        for key, value in table.items():
+            if key not in _USUAL or not is_number(value):
+                continue
+            lo, hi, unit, others = _USUAL[key]
+            if lo <= value <= hi:
+                continue
+            guesses = [f"in {name}? that is {value * factor:.4g} {unit}" for name, factor in others
+                       if lo <= value * factor <= hi]
+            c.warn(f"{prefix}.{key}", f"{value:g} {unit} is outside the usual {lo:g}..{hi:g} "
+                   f"{unit}" + (f" ({'; '.join(guesses)})" if guesses else ""))
+    _unusual_jerks(c, tables)
+
+
+def _unusual_jerks(c: Problems, tables: dict[str, dict]) -> None:
+    """A jerk 1000x off (mm/s^3 in an m/s^3 key) can still lie in the usual range, so two more
+    signs are looked for: one jerk ``_JERK_SPREAD`` times above or below all the others (the
+    axes' and the path's, MD32431 and J_curv), and an axis jerk that reaches the axis
+    acceleration within ``_JERK_RAMP_MIN_CYCLES`` of an interpolation cycle (it would limit
+    nothing the NC interpolates)."""
+    jerks = {f"{p}.max_jerk_m_s3": t.get("max_jerk_m_s3") for p, t in tables.items()
+             if p.startswith("axes.")}
+    jerks["ncu.curvilinear_jerk_m_s3"] = tables["ncu"].get("curvilinear_jerk_m_s3")
+    jerks = {k: float(v) for k, v in jerks.items() if is_number(v) and v > 0}
+    flagged = {w.key for w in c.warnings}     # one warning a key
+    for key, value in jerks.items():
+        others = [v for k, v in jerks.items() if k != key]
+        if len(others) < 2 or key in flagged:
+            continue
+        if value >= _JERK_SPREAD * max(others):
+            flagged.add(key)
+            c.warn(key, f"{value:g} m/s^3 is over {_JERK_SPREAD:g} times every other jerk of the "
+                   f"machine (at most {max(others):g} m/s^3; in mm/s^3? that is "
+                   f"{value * 1e-3:.4g} m/s^3)")
+        elif value * _JERK_SPREAD <= min(others):
+            flagged.add(key)
+            c.warn(key, f"{value:g} m/s^3 is under 1/{_JERK_SPREAD:g} of every other jerk of the "
+                   f"machine (at least {min(others):g} m/s^3; 1000 times too small?)")
+    ipo_ms = tables["ncu"].get("ipo_cycle_ms")
+    for ax in AXIS_NAMES:
+        key = f"axes.{ax}.max_jerk_m_s3"
+        accel = tables[f"axes.{ax}"].get("max_accel_m_s2")
+        if key in flagged or key not in jerks or not (is_number(ipo_ms) and is_number(accel)):
+            continue
+        ramp_ms = s_to_ms(accel / jerks[key])
+        if ramp_ms < _JERK_RAMP_MIN_CYCLES * ipo_ms:
+            c.warn(key, f"{jerks[key]:g} m/s^3 reaches max_accel_m_s2 = {accel:g} in "
+                   f"{ramp_ms:.2g} ms, a small fraction of the interpolation cycle ({ipo_ms:g} ms): "
+                   f"it would limit nothing (in mm/s^3? that is {jerks[key] * 1e-3:.4g} m/s^3)")
 
 
 def bundled_machines() -> dict[str, str]:

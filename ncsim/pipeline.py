@@ -19,7 +19,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path as FsPath
 from typing import Callable, Iterable
 
-from ncsim.errors import NcsimError, NcWarning, UsageError
+from ncsim.errors import ConfigWarning, NcsimError, NcWarning, UsageError
 from ncsim.machine import MachineSpec, load_machine
 from ncsim.motion import FULL_MODEL, ModelOptions, Motion
 from ncsim.nc.interpret import InterpretResult, interpret_file, interpret_text
@@ -46,8 +46,10 @@ class Simulation:
         return self.motion.path
 
     @property
-    def warnings(self) -> tuple[NcWarning, ...]:
-        return self.interpreted.warnings if self.interpreted is not None else ()
+    def warnings(self) -> tuple[ConfigWarning | NcWarning, ...]:
+        """The machine file's (unusual values), then the program's."""
+        program = self.interpreted.warnings if self.interpreted is not None else ()
+        return tuple(self.machine.warnings) + tuple(program)
 
     @property
     def cycle_time_s(self) -> float:

@@ -91,3 +91,23 @@ def test_cli_prints_one_line_and_exits_2(tmp_path, repo_root, option):
     assert r.exit_code == 2
     assert r.stderr.strip().startswith(f"{f}: cannot read ") and "not UTF-8" in r.stderr
     assert len(r.stderr.splitlines()) == 1 and "Traceback" not in r.output
+
+
+@pytest.mark.parametrize("text, message", [
+    # G054 would be stored and never applied: the interpreter asks for G54
+    ("[work_offsets]\nG054 = [100.0, 0.0, 0.0]\n",
+     "work_offsets.G054: unknown work offset (write G54; use G54..G57 or G505..G599)"),
+    ("[work_offsets]\nG0505 = [1.0, 0.0, 0.0]\n", "work_offsets.G0505: unknown work offset (write G505;"),
+    ('[work_offsets]\n"G\u0665\u0664" = [1.0, 0.0, 0.0]\n', "work_offsets.G\u0665\u0664: unknown work offset (use G54"),
+    # 1e160 overflowed the segment lengths and ended as 'circle centre coincides with the start'
+    ("[work_offsets]\nG54 = [1e160, 0.0, 0.0]\n",
+     "work_offsets.G54: must be three finite numbers of magnitude below 1e+09 mm"),
+    ("[work_offsets]\nG54 = [nan, 0.0, 0.0]\n", "work_offsets.G54: must be three finite numbers"),
+    ("[work_offsets]\nG54 = [0.0, -inf, 0.0]\n", "work_offsets.G54: must be three finite numbers"),
+])
+def test_setup_offsets_the_interpreter_would_not_apply_or_cannot_use(tmp_path, text, message):
+    f = tmp_path / "setup.toml"
+    f.write_text(text, encoding="utf-8")
+    with pytest.raises(MachineSpecError) as info:
+        load_setup(f)
+    assert str(info.value).startswith(f"{f}: {message}")

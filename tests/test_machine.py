@@ -32,7 +32,7 @@ def mikron_dict():
 
 @pytest.mark.parametrize("edit,key,message", [
     (lambda d: d["axes"]["X"].pop("max_jerk_m_s3"), "axes.X.max_jerk_m_s3", "missing key"),
-    (lambda d: d["axes"]["Y"].update(max_accel_m_s2=-3.0), "axes.Y.max_accel_m_s2", "must be a positive number"),
+    (lambda d: d["axes"]["Y"].update(max_accel_m_s2=-3.0), "axes.Y.max_accel_m_s2", "must be between 0.001 and 1e+06 m/s^2, got -3"),
     (lambda d: d["axes"]["Z"].update(max_velocity_m_min="fast"), "axes.Z.max_velocity_m_min", "must be a number"),
     (lambda d: d["ncu"].update(ipo_cycle_sec=12), "ncu.ipo_cycle_sec", "unknown key"),
     (lambda d: d["ncu"].update(lookahead_blocks=10.5), "ncu.lookahead_blocks", "must be an integer"),
@@ -54,7 +54,7 @@ def test_several_problems_are_reported_together():
     data = mikron_dict()
     data["axes"]["X"]["max_jerk_m_s3"] = 0
     data["ncu"]["bogus"] = 1
-    with pytest.raises(MachineSpecError, match=r"axes.X.max_jerk_m_s3: must be a positive number.*1 more: ncu.bogus: unknown key"):
+    with pytest.raises(MachineSpecError, match=r"axes.X.max_jerk_m_s3: must be between 0.001 and 1e\+09 m/s\^3, got 0.*1 more: ncu.bogus: unknown key"):
         machine_from_dict(data, "shop.toml")
 
 
@@ -94,3 +94,85 @@ def test_cli_reports_a_bad_machine_on_one_line(tmp_path, repo_root):
     r = CliRunner().invoke(cli, ["run", str(repo_root / "programs/circle_r30_f6000.mpf"), "--machine", str(f)])
     assert r.exit_code == 2
     assert r.output.strip() == f"{f}: axes.X.max_accel_m_s2: must be a number, got str '2.5 m/s2'"
+
+
+# ---------------------------------------------------------------------------------------------
+# Physically possible ranges (errors) and usual ranges (warnings naming the likely unit)
+# ---------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("edit, key, message", [
+    # values the fuzzer found passing validation, then dividing by ~0 or overflowing
+    (lambda d: d["axes"]["X"].update(max_jerk_m_s3=1e-300), "axes.X.max_jerk_m_s3",
+     "must be between 0.001 and 1e+09 m/s^3, got 1e-300"),
+    (lambda d: d["ncu"].update(lookahead_blocks=2 ** 64), "ncu.lookahead_blocks",
+     "must be an integer from 1 to 100000, got 18446744073709551616"),
+    (lambda d: d["axes"]["Y"].update(max_velocity_m_min=5e-324), "axes.Y.max_velocity_m_min",
+     "must be between 0.001 and 1e+06 m/min"),
+    (lambda d: d["ncu"].update(exact_stop_fine_settle_ms=1e300), "ncu.exact_stop_fine_settle_ms",
+     "must be between 0 and 100000 ms, got 1e+300"),
+    (lambda d: d["ncu"].update(ipo_cycle_ms=float("inf")), "ncu.ipo_cycle_ms",
+     "must be between 0.001 and 100000 ms, got inf"),
+    (lambda d: d["ncu"].update(curvilinear_jerk_m_s3=float("nan")), "ncu.curvilinear_jerk_m_s3",
+     "must be between"),
+    (lambda d: d.update(work_offsets={"G54": [float("nan"), 0.0, 0.0]}), "work_offsets.G54",
+     "must be three finite numbers of magnitude below 1e+09 mm (the 840D's position range), got [nan, 0, 0]"),
+    (lambda d: d.update(work_offsets={"G55": [0.0, float("inf"), 0.0]}), "work_offsets.G55",
+     "must be three finite numbers"),
+])
+def test_impossible_values_are_errors(edit, key, message):
+    data = mikron_dict()
+    edit(data)
+    with pytest.raises(MachineSpecError) as info:
+        machine_from_dict(data, "shop.toml")
+    assert info.value.render().startswith(f"shop.toml: {key}: {message}")
+
+
+def test_the_papers_machine_has_nothing_unusual(mikron):
+    assert mikron.warnings == ()
+
+
+@pytest.mark.parametrize("edit, key, words", [
+    (lambda d: d["axes"]["X"].update(max_velocity_m_min=30000.0), "axes.X.max_velocity_m_min",
+     "30000 m/min is outside the usual 0.5..300 m/min (in mm/min? that is 30 m/min)"),
+    (lambda d: d["axes"]["Y"].update(max_velocity_m_min=0.25), "axes.Y.max_velocity_m_min",
+     "0.25 m/min is outside the usual 0.5..300 m/min (in m/s? that is 15 m/min)"),
+    (lambda d: d["axes"]["Z"].update(max_accel_m_s2=2100.0), "axes.Z.max_accel_m_s2",
+     "(in mm/s^2? that is 2.1 m/s^2)"),
+    (lambda d: d["ncu"].update(ipo_cycle_ms=0.012), "ncu.ipo_cycle_ms", "(in s? that is 12 ms)"),
+    (lambda d: d["ncu"].update(transition_time_ms=12000.0), "ncu.transition_time_ms",
+     "(in us? that is 12 ms)"),
+    (lambda d: d["axes"]["X"].update(position_gain_1_s=2.0), "axes.X.position_gain_1_s",
+     "(in (m/min)/mm as MD32200 is entered? that is 33.33 1/s)"),
+    # a jerk 1000x too large is still a usual jerk: other signs give it away
+    (lambda d: d["axes"]["X"].update(max_jerk_m_s3=5000.0), "axes.X.max_jerk_m_s3",
+     "5000 m/s^3 is over 100 times every other jerk of the machine (at most 50 m/s^3; in mm/s^3? "
+     "that is 5 m/s^3)"),
+    (lambda d: [d["axes"][a].update(max_jerk_m_s3=1000 * d["axes"][a]["max_jerk_m_s3"]) for a in "XYZ"]
+     and d["ncu"].update(curvilinear_jerk_m_s3=1e4), "axes.Z.max_jerk_m_s3",
+     "50000 m/s^3 reaches max_accel_m_s2 = 2.1 in 0.042 ms, a small fraction of the interpolation "
+     "cycle (12 ms): it would limit nothing (in mm/s^3? that is 50 m/s^3)"),
+    (lambda d: d["axes"]["Y"].update(max_jerk_m_s3=0.005), "axes.Y.max_jerk_m_s3",
+     "0.005 m/s^3 is outside the usual 0.5..100000 m/s^3"),
+])
+def test_values_in_the_wrong_unit_load_with_a_warning_naming_key_and_unit(edit, key, words):
+    data = mikron_dict()
+    edit(data)
+    spec = machine_from_dict(data, "shop.toml")
+    rendered = [w.render() for w in spec.warnings]
+    assert any(r.startswith(f"shop.toml: {key}: warning: ") and words in r for r in rendered), rendered
+    assert all("\n" not in r for r in rendered)
+    assert len({w.key for w in spec.warnings}) == len(spec.warnings)   # one warning a key
+
+
+def test_cli_prints_the_unit_warning_on_stderr_and_runs(tmp_path, repo_root):
+    text = (repo_root / "ncsim" / "machines" / "mikron.toml").read_text()
+    f = tmp_path / "shop.toml"
+    f.write_text(text.replace("max_velocity_m_min = 30.0   # paper Table 1 (V_mx)",
+                              "max_velocity_m_min = 30000.0   # paper Table 1 (V_mx)"))
+    r = CliRunner().invoke(cli, ["run", str(repo_root / "programs/circle_r30_f6000.mpf"),
+                                 "--machine", str(f), "--json"])
+    assert r.exit_code == 0
+    assert r.stderr.splitlines() == [f"{f}: axes.X.max_velocity_m_min: warning: 30000 m/min is "
+                                     "outside the usual 0.5..300 m/min (in mm/min? that is 30 m/min)"]
+    import json
+    assert json.loads(r.stdout)["warnings"] == r.stderr.splitlines()
