@@ -217,18 +217,17 @@ HEADER = "t_s,x_mm,block,line,limit\n"
 
 
 @pytest.mark.parametrize("content, where, message", [
-    ("", None, "empty trace file"),
-    ("# only a comment\n", None, "empty trace file"),
+    ("", None, "empty file"),
+    ("# only a comment\n", None, "empty file"),
     ("x_mm,y_mm\n1,2\n", "column 't_s'", "missing column"),
     ("t_s,x_mm,x_mm\n", "column 'x_mm'", "named twice"),
-    ("t_s,,x_mm\n", ":1:", "empty name for column 2"),
-    (HEADER + "0,1,0,1,programmed\n0.1,2,0,1\n", ":3:", "expected 5 fields, got 4"),
-    (HEADER + "0,1,0,1,programmed\n0.1,abc,0,1,programmed\n", ":3:", "column 'x_mm': 'abc' is not a number"),
+    (HEADER + "0,1,0,1,programmed\n0.1,2,0,1\n", ":3:", "row has 4 fields, no column 'limit' (the header has 5)"),
+    (HEADER + "0,1,0,1,programmed\n0.1,abc,0,1,programmed\n", ":3:", "column 'x_mm' is not a number: 'abc'"),
     (HEADER + "0,1,0,1,fast\n", ":2:", "column 'limit': unknown label 'fast'"),
     (HEADER + "0,1,0.5,1,programmed\n", ":2:", "column 'block': expected an integer"),
     (HEADER + "0.2,1,0,1,programmed\n0.1,1,0,1,programmed\n", ":3:", "time goes backwards"),
     (HEADER + "0,1,0,1,programmed\n\nnan,1,0,1,programmed\n", ":4:", "finite"),
-    ("t_s,x_mm\n0,1\n0.1,1,2\n", ":3:", "expected 2 fields, got 3"),
+    ("t_s,x_mm\n0,1\n0.1,1,2\n", ":3:", "row has 3 fields, the header has 2 (a decimal comma?)"),
 ])
 def test_bad_files_raise_one_line_errors(tmp_path, content, where, message):
     file = tmp_path / "bad.csv"

@@ -136,4 +136,4 @@ def test_bad_trace_line_is_located(tmp_path):
     csv = tmp_path / "bad.csv"
     csv.write_text("t_s,feed_mm_min\n0.0,0\n0.1,abc\n")
     r = invoke("--trace", csv, "-o", tmp_path / "x.png")
-    assert r.exit_code == 2 and r.stderr.strip() == f"{csv}:3: column 'feed_mm_min': 'abc' is not a number"
+    assert r.exit_code == 2 and r.stderr.strip() == f"{csv}:3: column 'feed_mm_min' is not a number: 'abc'"

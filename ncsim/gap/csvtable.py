@@ -1,11 +1,15 @@
-"""A measured CSV table: its header, its dialect and its numeric columns, read fast.
+"""A measured CSV table: its header, its dialect and its numeric columns, read fast. The one
+CSV reader of ncsim: ``ncsim gap --measured`` (``gap.measured``) and ``ncsim plot --trace``
+(``report.csvio``) read through it, so they accept the same files.
 
 The dialect ``ncsim gap --measured`` accepts: UTF-8 (a byte-order mark is dropped), any line
 ends, one header row, blank lines and lines starting with ``#`` skipped, delimiter ``,`` ``;``
 or tab (the one the header uses most), fields optionally in double quotes. Every data row has
 as many fields as the header: a row with one field more (``1,5`` written with a decimal comma)
 is an error, never a shifted row. Numbers are what ``float`` reads without ``_`` digit
-separators; NaN and infinities are errors.
+separators; NaN and infinities are errors (unless the reader allows them: a written trace
+holds ``inf`` for a rapid's programmed feed), and a column of labels is read by the reader's
+converter.
 
 Numeric columns are parsed in one call of numpy's compiled ``np.loadtxt`` (about 0.5 s for a
 million rows of four columns); only when that fails, or the field count does not add up, are
@@ -85,9 +89,12 @@ class CsvTable:
         """One column as stripped strings ('' where a row is short)."""
         return [r[index].strip() if index < len(r) else "" for _, r in self.rows()]
 
-    def _located_error(self, indices, names) -> MeasuredDataError:
-        """The first bad cell or row of the columns ``indices`` (after the fast path failed)."""
+    def _located_error(self, indices, names, finite: bool = True,
+                       converters=None) -> MeasuredDataError | None:
+        """The first bad cell or row of the columns ``indices`` (after the fast path failed),
+        or None when every row is fine (a line of spaces, which loadtxt refuses)."""
         width = len(self.header)
+        converters = converters or {}
         for lineno, row in self.rows():
             short = [name for index, name in zip(indices, names) if index >= len(row)]
             if short:
@@ -97,31 +104,55 @@ class CsvTable:
                 return MeasuredDataError(f"row has {len(row)} fields, the header has {width} "
                                          "(a decimal comma?)", file=self.file, line=lineno)
             for index, name in zip(indices, names):
-                problem = cell_problem(row[index], name)
+                if index in converters:
+                    try:
+                        converters[index](row[index].strip().strip('"').strip())
+                        problem = None
+                    except ValueError as exc:
+                        problem = f"column '{name}': {exc}"
+                else:
+                    problem = cell_problem(row[index], name, finite)
                 if problem:
                     return MeasuredDataError(problem, file=self.file, line=lineno)
-        return MeasuredDataError("cannot parse the numeric columns", file=self.file)
+        return None
 
     # -- the fast path --------------------------------------------------------------------------
 
-    def floats(self, indices, names=None) -> np.ndarray:
-        """The columns ``indices`` as an (m, k) float array (module docstring)."""
+    def floats(self, indices, names=None, *, finite: bool = True, converters=None) -> np.ndarray:
+        """The columns ``indices`` as an (m, k) float array (module docstring). ``finite=False``
+        lets NaN and infinities through; ``converters`` maps a column index to a function of
+        the cell's text giving its number (a label's code), raising ValueError with the
+        problem for a bad cell."""
         indices = [int(i) for i in indices]
         names = list(names) if names is not None else [self.header[i] for i in indices]
         if not indices:
             return np.zeros((self.n_rows(), 0))
         quoted = '"' in self.body
-        try:
+
+        def load(body: str) -> np.ndarray:
             with warnings.catch_warnings():  # a body of comments only: no rows, no warning
                 warnings.simplefilter("ignore", UserWarning)
-                out = np.loadtxt(io.StringIO(self.body), delimiter=self.delimiter,
-                                 comments="#", usecols=indices, ndmin=2, dtype=np.float64,
-                                 quotechar='"' if quoted else None)
+                return np.loadtxt(io.StringIO(body), delimiter=self.delimiter, comments="#",
+                                  usecols=indices, ndmin=2, dtype=np.float64,
+                                  quotechar='"' if quoted else None, converters=converters)
+
+        def located() -> MeasuredDataError:
+            error = self._located_error(indices, names, finite, converters)
+            return error or MeasuredDataError("cannot parse the numeric columns", file=self.file)
+
+        try:
+            out = load(self.body)
         except ValueError:
-            raise self._located_error(indices, names) from None
-        if not self._field_count_ok(len(out), quoted) or not np.all(np.isfinite(out)) \
-                or "_" in self.body and self._has_separator(indices):
-            raise self._located_error(indices, names)
+            if self._located_error(indices, names, finite, converters) is not None:
+                raise located() from None
+            try:                             # every row is fine: lines of spaces only
+                out = load("\n".join(self.delimiter.join(r) for _, r in self.rows()))
+            except ValueError:
+                raise located() from None
+        numeric = [i for i in indices if i not in (converters or {})]
+        if not self._field_count_ok(len(out), quoted) or (finite and not np.all(np.isfinite(out))) \
+                or (converters is None and "_" in self.body and self._has_separator(numeric)):
+            raise located()
         return out
 
     def _field_count_ok(self, n_rows: int, quoted: bool) -> bool:
@@ -134,12 +165,14 @@ class CsvTable:
         return self.body.count(self.delimiter) == n_rows * (width - 1)
 
     def _has_separator(self, indices) -> bool:
-        """Does a numeric cell hold a ``_`` digit separator (read by ``float``, not by ncsim)?"""
+        """Does a numeric cell hold a ``_`` digit separator (read by ``float``, not by ncsim)?
+        (numpy's compiled loadtxt refuses them already; with label columns, whose names hold
+        ``_``, this walk of every row is skipped)"""
         return any("_" in row[i] for _, row in self.rows() for i in indices if i < len(row))
 
 
-def cell_problem(cell: str, name: str) -> str | None:
-    """Why a cell is not a finite number (None if it is one)."""
+def cell_problem(cell: str, name: str, finite: bool = True) -> str | None:
+    """Why a cell is not a finite number (or, unless ``finite``, a number; None if it is)."""
     text = cell.strip().strip('"').strip()
     if not text:
         return f"column '{name}' is empty"
@@ -149,6 +182,8 @@ def cell_problem(cell: str, name: str) -> str | None:
         v = float(text)
     except ValueError:
         return f"column '{name}' is not a number: {text!r}"
+    if not finite:
+        return None
     if math.isnan(v):
         return f"column '{name}' is {text}"
     if not math.isfinite(v):
@@ -156,10 +191,15 @@ def cell_problem(cell: str, name: str) -> str | None:
     return None
 
 
-def read_table(file) -> CsvTable:
-    """Read a CSV file's header and body (module docstring)."""
+def read_table(file, what: str = "file") -> CsvTable:
+    """Read a CSV file's header and body (module docstring); ``what`` names the file in a read
+    error (``FILE: cannot read trace file: ...``)."""
     name = str(file)
-    text = read_text(file, "file", error=MeasuredDataError)
+    return table_from_text(read_text(file, what, error=MeasuredDataError), name)
+
+
+def table_from_text(text: str, name: str) -> CsvTable:
+    """:func:`read_table` of a text already read (``name`` is the file errors name)."""
     pos, lineno = 0, 1
     n = len(text)
     while pos < n:

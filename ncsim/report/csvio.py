@@ -18,7 +18,8 @@ with vectorised scatters; it is used for the rare chunks with values outside the
 byte-identical output. About 2.5 million rows per second for the default columns on a 2-core
 machine, against ~0.15 million for ``np.savetxt`` (``benchmarks/bench_trace_io.py``).
 
-Reading uses ``np.loadtxt``, then checks the file: any problem is one
+Reading takes the file in the dialect of :mod:`ncsim.config` (the one ``ncsim gap`` reads
+too), parses it with ``np.loadtxt``, then checks it: any problem is one
 :class:`~ncsim.errors.MeasuredDataError` line naming the file and the line or column.
 """
 from __future__ import annotations
@@ -31,6 +32,7 @@ from typing import Callable, Iterable, Mapping
 import numpy as np
 
 from ncsim.errors import MeasuredDataError, UsageError
+from ncsim.gap.csvtable import read_table, table_from_text
 from ncsim.motion import Limit, Phase
 from ncsim.motion import Trace
 from ncsim.units import mm_min_to_mm_s, mm_s_to_mm_min
@@ -338,23 +340,38 @@ class _Sink:
 
     def __init__(self, file):
         self.close_after = False
+        self.name = os.fspath(file) if isinstance(file, (str, os.PathLike)) else getattr(file, "name", "<trace>")
         if isinstance(file, (str, os.PathLike)):
             try:
                 self.f = open(file, "wb")
             except OSError as exc:
-                raise UsageError(f"{os.fspath(file)}: cannot write trace file: {exc.strerror}") from None
+                raise self._error(exc) from None
             self.close_after = True
             self.text = False
         else:
             self.f = file
             self.text = isinstance(file, io.TextIOBase)
 
-    def write(self, data: bytes) -> None:
-        self.f.write(data.decode("ascii") if self.text else data)
+    def _error(self, exc: OSError) -> UsageError:
+        """A full disk, a closed pipe...: one line naming the file, never a traceback."""
+        return UsageError(f"{self.name}: cannot write trace file: {exc.strerror or exc}")
 
-    def close(self) -> None:
-        if self.close_after:
-            self.f.close()
+    def write(self, data: bytes) -> None:
+        try:
+            self.f.write(data.decode("ascii") if self.text else data)
+        except OSError as exc:
+            self.close(failed=True)
+            raise self._error(exc) from None
+
+    def close(self, failed: bool = False) -> None:
+        if not self.close_after:
+            return
+        self.close_after = False
+        try:
+            self.f.close()          # flushes: a full disk may show only here
+        except OSError as exc:
+            if not failed:
+                raise self._error(exc) from None
 
 
 def write_trace_csv(trace: Trace, file, *, columns: Iterable[str] | str | None = None,
@@ -388,80 +405,6 @@ def write_trace_csv(trace: Trace, file, *, columns: Iterable[str] | str | None =
 # Reading
 # ---------------------------------------------------------------------------------------------
 
-def _read_bytes(file) -> tuple[bytes, str]:
-    if isinstance(file, (str, os.PathLike)):
-        name = os.fspath(file)
-        try:
-            with open(file, "rb") as f:
-                return f.read(), name
-        except OSError as exc:
-            raise MeasuredDataError(f"cannot read trace file: {exc.strerror}", file=name) from None
-    name = getattr(file, "name", "<trace>")
-    data = file.read()
-    if isinstance(data, str):
-        data = data.encode("utf-8")
-    return data, str(name)
-
-
-def _split_header(data: bytes, name: str) -> tuple[list[str], bytes, int]:
-    """Column names, the body (data lines) and the 1-based line number of the first body line.
-    Lines starting with '#' before the header are comments."""
-    pos, line_no = 0, 1
-    while True:
-        end = data.find(b"\n", pos)
-        line = data[pos:] if end < 0 else data[pos:end]
-        text = line.strip()
-        if text and not text.startswith(b"#"):
-            break
-        if end < 0:
-            raise MeasuredDataError("empty trace file: expected a header line such as "
-                                    f"'{','.join(DEFAULT_COLUMNS)}'", file=name)
-        pos, line_no = end + 1, line_no + 1
-    try:
-        header = line.decode("ascii").strip()
-    except UnicodeDecodeError:
-        raise MeasuredDataError("the header line is not ASCII text", file=name, line=line_no) from None
-    names = [h.strip() for h in header.split(",")]
-    for i, h in enumerate(names):
-        if not h:
-            raise MeasuredDataError(f"empty name for column {i + 1} in the header", file=name,
-                                    line=line_no)
-        if names.index(h) != i:
-            raise MeasuredDataError("column named twice in the header", file=name, column=h)
-    if "t_s" not in names:
-        raise MeasuredDataError("missing column (every trace needs a time column)", file=name,
-                                column="t_s")
-    body = b"" if end < 0 else data[end + 1:]
-    return names, body, line_no + 1
-
-
-def _find_bad_line(body: bytes, first_line: int, names: list[str], name: str) -> MeasuredDataError:
-    """Slow path, only after the fast parse failed: locate and describe the first bad line."""
-    label_sets = {"limit": LIMIT_LABELS, "phase": PHASE_LABELS}
-    for i, raw in enumerate(body.split(b"\n")):
-        line = raw.strip()
-        if not line:
-            continue
-        fields = line.split(b",")
-        if len(fields) != len(names):
-            return MeasuredDataError(f"expected {len(names)} fields, got {len(fields)}",
-                                     file=name, line=first_line + i)
-        for col, value in zip(names, fields):
-            text = value.strip().decode("ascii", "replace")
-            if col in label_sets:
-                if _label_code(text, col) < 0:
-                    return MeasuredDataError(f"column '{col}': unknown label {text!r} (expected "
-                                             f"one of {', '.join(label_sets[col])})",
-                                             file=name, line=first_line + i)
-                continue
-            try:
-                float(text)
-            except ValueError:
-                return MeasuredDataError(f"column '{col}': {text!r} is not a number",
-                                         file=name, line=first_line + i)
-    return MeasuredDataError("cannot parse the trace", file=name)
-
-
 _LABEL_CODES = {"limit": {s: i for i, s in enumerate(LIMIT_LABELS)},
                 "phase": {s: i for i, s in enumerate(PHASE_LABELS)}}
 
@@ -474,67 +417,71 @@ def _label_code(text: str, column: str) -> int:
     return code
 
 
-def _data_line(body: bytes, first_line: int, row: int) -> int:
-    """Physical line number of data row ``row`` (blank lines are skipped by the parser)."""
-    if b"\n\n" not in body and not body.startswith(b"\n"):
-        return first_line + row
-    seen = -1
-    for i, raw in enumerate(body.split(b"\n")):
-        if raw.strip():
-            seen += 1
-            if seen == row:
-                return first_line + i
-    return first_line + row
+def _label_converter(column: str):
+    """A cell of a label column -> its code (ValueError naming the labels for another)."""
+    labels = LIMIT_LABELS if column == "limit" else PHASE_LABELS
+
+    def convert(text: str) -> float:
+        code = _label_code(text.strip().strip('"').strip(), column)
+        if code < 0:
+            raise ValueError(f"unknown label {text.strip()!r} (expected one of {', '.join(labels)})")
+        return float(code)
+    return convert
 
 
 def read_trace_csv(file) -> dict[str, np.ndarray]:
     """Read a trace CSV (as written by :func:`write_trace_csv`, or any CSV with a ``t_s``
     column) into columns, in the units of their names: ``block``/``line`` as int64,
     ``limit``/``phase`` as their int8 codes (:class:`~ncsim.motion.Limit`,
-    :class:`~ncsim.motion.Phase`), everything else float64. Any problem raises a one-line
-    :class:`~ncsim.errors.MeasuredDataError` naming the file and line or column.
+    :class:`~ncsim.motion.Phase`), everything else float64 (``inf`` and ``nan`` allowed: a
+    rapid's programmed feed is ``inf``). The file is read in the dialect of
+    :mod:`ncsim.gap.csvtable`, as ``ncsim gap --measured`` reads it. Any problem raises a
+    one-line :class:`~ncsim.errors.MeasuredDataError` naming the file and line or column.
     """
-    data, name = _read_bytes(file)
-    names, body, first_line = _split_header(data, name)
-    label_cols = [i for i, n in enumerate(names) if n in _LABEL_CODES]
-    converters = {i: (lambda col: (lambda s: _label_code(s.strip(), col)))(names[i])
-                  for i in label_cols}
-    if not body.strip():
-        table = np.zeros((0, len(names)))
-    else:
+    if isinstance(file, (str, os.PathLike)):
+        table = read_table(file, "trace file")
+    else:                                    # a file object
+        data = file.read()
+        name = str(getattr(file, "name", "<trace>"))
         try:
-            table = np.loadtxt(io.BytesIO(body), delimiter=",", dtype=np.float64, ndmin=2,
-                               converters=converters or None, comments=None, encoding="ascii")
-        except (ValueError, UnicodeDecodeError) as exc:
-            raise _find_bad_line(body, first_line, names, name) from exc
-    if table.shape[1] != len(names):
-        raise _find_bad_line(body, first_line, names, name)
+            text = data.decode("utf-8-sig") if isinstance(data, bytes) else data
+        except UnicodeDecodeError as exc:
+            raise MeasuredDataError(f"cannot read trace file: not UTF-8 text (byte {exc.start})",
+                                    file=name) from None
+        table = table_from_text(text.lstrip("\ufeff"), name)
+    names, name = table.header, table.file
+    twice = next((n for i, n in enumerate(names) if n and names.index(n) != i), None)
+    if twice is not None:
+        raise MeasuredDataError("column named twice in the header", file=name, column=twice)
+    if "t_s" not in names:
+        raise MeasuredDataError("missing column (every trace needs a time column)", file=name,
+                                column="t_s")
+    converters = {i: _label_converter(n) for i, n in enumerate(names) if n in _LABEL_CODES}
+    named = [i for i, n in enumerate(names) if n]    # an unnamed column (pandas' index) is left
+    values = table.floats(named, finite=False, converters=converters or None)
     out: dict[str, np.ndarray] = {}
-    for i, col in enumerate(names):
-        values = table[:, i]
-        if i in label_cols:
-            bad = np.flatnonzero(values < 0)
-            if len(bad):
-                raise _find_bad_line(body, first_line, names, name)
-            out[col] = values.astype(np.int8)
+    for k, i in enumerate(named):
+        col, column = names[i], values[:, k]
+        if i in converters:
+            out[col] = column.astype(np.int8)
         elif col in ("block", "line"):
-            if not np.all(np.isfinite(values)) or np.any(values != np.round(values)):
-                row = int(np.flatnonzero(~np.isfinite(values) | (values != np.round(values)))[0])
-                raise MeasuredDataError(f"column '{col}': expected an integer",
-                                        file=name, line=_data_line(body, first_line, row))
-            out[col] = values.astype(np.int64)
+            bad = ~np.isfinite(column) | (column != np.round(column))
+            if bad.any():
+                raise MeasuredDataError(f"column '{col}': expected an integer", file=name,
+                                        line=table.line_of(int(np.flatnonzero(bad)[0])))
+            out[col] = column.astype(np.int64)
         else:
-            out[col] = np.ascontiguousarray(values)
+            out[col] = np.ascontiguousarray(column)
     t = out["t_s"]
     bad = np.flatnonzero(~np.isfinite(t))
     if len(bad):
-        raise MeasuredDataError("column 't_s': time must be a finite number",
-                                file=name, line=_data_line(body, first_line, int(bad[0])))
+        raise MeasuredDataError("column 't_s': time must be a finite number", file=name,
+                                line=table.line_of(int(bad[0])))
     back = np.flatnonzero(np.diff(t) < 0)
     if len(back):
         row = int(back[0]) + 1
         raise MeasuredDataError(f"column 't_s': time goes backwards ({t[row]:g} s after "
-                                f"{t[row - 1]:g} s)", file=name, line=_data_line(body, first_line, row))
+                                f"{t[row - 1]:g} s)", file=name, line=table.line_of(row))
     return out
 
 
