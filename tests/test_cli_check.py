@@ -63,7 +63,7 @@ def test_feed_ratio_fails_exit_1_naming_the_block(easy_circle):
     assert r.exit_code == 1
     assert "FAIL  feed ratio 0.870 < 0.875" in r.stdout
     assert f"{easy_circle}:10: programmed holds the feed (F6000 mm/min" in r.stdout
-    assert r.stdout.splitlines()[-1] == "1 of 1 checks failed"
+    assert r.stdout.splitlines()[-1] == "1 of 1 check failed"
 
 
 def test_max_time_either_side_of_the_closed_form(slow_circle):
@@ -140,3 +140,39 @@ def test_bad_program_exits_2(tmp_path):
     p.write_text("G1 X1\n")
     r = check(p, "-m", "mikron", "--max-time", 10)
     assert r.exit_code == 2 and r.stderr.strip().startswith(f"{p}:1:1: G1 without a feed")
+
+
+def test_one_check_is_singular(easy_circle):
+    r = check(easy_circle, "-m", "mikron", "--max-time", 3)
+    assert r.exit_code == 0 and r.stdout.splitlines()[-1] == "1 check passed"
+
+
+@pytest.mark.parametrize("text, reason", [
+    ("", "program: no motion and no M30, M2 or M17 at the end (truncated?)"),
+    ("; CAM post-processor output truncated\n", "program: no motion and no M30, M2 or M17 at the end"),
+    ("; header only\nM30\n", "program: no motion;"),
+    ("G17 G90 G64\nG1 X10 F1000\nG1 Y10\n", "program: no M30, M2 or M17 at the end (truncated?);"),
+])
+def test_an_empty_or_truncated_export_fails_with_the_reason(tmp_path, text, reason):
+    """Every threshold holds on nothing (cycle time 0, feed ratio 1): CI must not go green."""
+    p = tmp_path / "export.mpf"
+    p.write_text(text)
+    r = check(p, "-m", "mikron", "--max-time", 100, "--min-feed-ratio", 0.0)
+    assert r.exit_code == 1, r.output
+    fails = [line for line in r.stdout.splitlines() if line.startswith("FAIL")]
+    assert len(fails) == 1 and fails[0].startswith(f"FAIL  {reason}")
+    assert "--allow-empty" in fails[0]
+    data = json.loads(check(p, "-m", "mikron", "--max-time", 100, "--json").stdout)
+    assert data["ok"] is False and data["checks"][0]["name"] == "program"
+    r = check(p, "-m", "mikron", "--max-time", 100, "--allow-empty")
+    assert r.exit_code == 0 and r.stdout.splitlines()[-1] == "1 check passed"
+
+
+@pytest.mark.parametrize("option", ["--max-time", "--min-feed-ratio", "--max-limited-fraction",
+                                    "--max-regression"])
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
+def test_a_threshold_that_is_not_a_number_is_bad_input(easy_circle, option, value):
+    """NaN compares false with everything: ``--max-time nan`` failed the check (exit 1)."""
+    r = check(easy_circle, "-m", "mikron", option, value)
+    assert r.exit_code == 2 and r.stdout == ""
+    assert len(r.stderr.splitlines()) == 1 and f"Invalid value for '{option}'" in r.stderr

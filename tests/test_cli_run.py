@@ -13,6 +13,7 @@ from __future__ import annotations
 import io
 import json
 import math
+import os
 
 import pytest
 from click.testing import CliRunner
@@ -181,6 +182,9 @@ def test_setup_file_moves_the_work_offset(tmp_path):
     (["--machine", "mikron", "--accel-mode", "fast"], "ncsim run: error: Invalid value for '--accel-mode'"),
     ([], "ncsim run: error: Missing option '--machine'"),
     (["--machine", "mikron", "--dt", "0.1"], "ncsim run: error: --dt and --trace-columns apply to the trace"),
+    (["--machine", "mikron", "--trace", ""], "Invalid value for '--trace': the file name is empty"),
+    (["--machine", "mikron", "--setup", ""], "Invalid value for '--setup': the file name is empty"),
+    (["--machine", "mikron", "--trace", "t.csv", "--dt", "nan"], "'--dt': 'nan' is not a finite number"),
 ])
 def test_bad_options_exit_2_in_one_line(line_program, tmp_path, args, expected):
     extra = ["--trace", tmp_path / "t.csv"] if "--trace-columns" in args else []
@@ -199,13 +203,86 @@ def test_bad_program_exits_2_at_its_line(tmp_path):
     assert r.stderr.startswith(f"{p}:2:1: G2 without centre")
     assert len(r.stderr.splitlines()) == 1
     r = invoke(tmp_path / "missing.mpf", "-m", "mikron")
-    assert r.exit_code == 2 and "cannot read program" in r.stderr and len(r.stderr.splitlines()) == 1
+    assert r.exit_code == 2 and len(r.stderr.splitlines()) == 1
+    # the whole file is missing: no line and column to name (not FILE:0:0)
+    assert r.stderr == f"{tmp_path / 'missing.mpf'}: cannot read program: No such file or directory\n"
 
 
 def test_unwritable_trace_exits_2(line_program, tmp_path):
     r = invoke(line_program, "-m", "mikron", "--trace", tmp_path / "no" / "dir" / "t.csv")
     assert r.exit_code == 2 and "cannot write trace file" in r.stderr
     assert len(r.stderr.splitlines()) == 1
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs Linux's /dev/full")
+def test_a_full_disk_while_writing_the_trace_exits_2(line_program):
+    r = invoke(line_program, "-m", "mikron", "--trace", "/dev/full")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert r.stderr == "ncsim run: error: /dev/full: cannot write trace file: No space left on device\n"
+
+
+def test_per_limit_times_add_up_on_blocks_shorter_than_a_ramp(tmp_path):
+    """A 1 um feed move then a 1 um rapid: each lasts about one IPO cycle (eq. 6). Pieces are
+    given to blocks by time: found by path length with a 1e-9 mm tolerance, the last ramp
+    pieces of the feed move counted as rapid time (the sums missed by up to an IPO cycle)."""
+    p = tmp_path / "tiny.mpf"
+    p.write_text("G17 G90 G64 F1000\nG1 X0.000001\nG0 X0\nM30\n")
+    s = json.loads(invoke(p, "-m", "mikron", "--json").stdout)
+    assert s["blocks"] == 2 and s["feed_time_s"] > 0 and s["rapid_time_s"] > 0
+    assert sum(s["time_by_limit_s"].values()) == pytest.approx(s["feed_time_s"], rel=1e-12)
+    assert sum(s["rapid_time_by_limit_s"].values()) == pytest.approx(s["rapid_time_s"], rel=1e-12)
+
+
+def test_a_move_that_rounds_to_nothing_makes_no_block(tmp_path):
+    """AROT then ``G0 X=IC(0)``: the rotated point differs from the start by 4e-16 mm. It made
+    a rapid block, which stopped the feed moves around it (+24 ms) and lost negative time."""
+    program = "G17 G90 G60\nG1 F6000 X1 Y-2.07486 Z3.356451\nAROT Z=63.418\n{}G1 Y-1 Z0.002\nM30\n"
+    with_rapid, without = tmp_path / "phantom.mpf", tmp_path / "reference.mpf"
+    with_rapid.write_text(program.format("G0 X=IC(0)\n"))
+    without.write_text(program.format(""))
+    a = json.loads(invoke(with_rapid, "-m", "mikron", "--json").stdout)
+    b = json.loads(invoke(without, "-m", "mikron", "--json").stdout)
+    assert a["blocks"] == b["blocks"] == 2
+    assert a["cycle_time_s"] == b["cycle_time_s"]
+    assert min(blk["time_lost_s"] for blk in a["blocks_detail"]) >= 0.0
+
+
+@pytest.mark.parametrize("text, warnings", [
+    ("", ["{p}: warning: the program ends without M30, M2 or M17 (truncated?)",
+          "{p}: warning: no motion: the program moves no axis"]),
+    ("; CAM output cut short\n", ["{p}:1:0: warning: the program ends without M30, M2 or M17 (truncated?)",
+                                   "{p}: warning: no motion: the program moves no axis"]),
+    ("G1 X10 F1000\nG1 Y10\n", ["{p}:2:0: warning: the program ends without M30, M2 or M17 (truncated?)"]),
+    ("G1 X10 F1000\nM17\n", []),
+    ("G4 F1\nM30\n", ["{p}: warning: no motion: the program moves no axis"]),
+])
+def test_an_empty_or_truncated_program_is_a_warning(tmp_path, text, warnings):
+    p = tmp_path / "cut.mpf"
+    p.write_text(text)
+    r = invoke(p, "-m", "mikron")
+    assert r.exit_code == 0
+    assert r.stderr.splitlines() == [w.format(p=p) for w in warnings]
+    s = json.loads(invoke(p, "-m", "mikron", "--json").stdout)
+    assert s["reached_program_end"] is ("truncated" not in " ".join(warnings))
+
+
+def test_ctrl_c_exits_130_not_1(line_program, monkeypatch):
+    """1 means a failed check: an interrupted CI job must not read as one."""
+    import ncsim.pipeline
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(ncsim.pipeline, "simulate", interrupted)
+    for args in (["run"], ["check", "--max-time", "9"]):
+        r = CliRunner().invoke(cli, [*args, str(line_program), "-m", "mikron"])
+        assert r.exit_code == 130 and r.stderr == "ncsim: interrupted\n", r.output
+
+
+def test_an_unknown_option_of_ncsim_itself_is_one_line():
+    r = CliRunner().invoke(cli, ["--badopt"])
+    assert r.exit_code == 2
+    assert r.stderr == "ncsim: error: No such option '--badopt'. (see 'ncsim --help')\n"
 
 
 def test_progress_draws_stages_on_a_terminal_only():

@@ -143,7 +143,9 @@ def test_bad_measured_files_give_one_line(tmp_path, repo_root, text, words):
     (["--base", "nope"], "unknown base model 'nope'"),
     (["--effects", "wobble"], "unknown effect 'wobble'"),
     (["--column", "tx"], "--column must be KEY=VALUE"),
-    (["--sample-period-ms", "-1"], "must be positive"),
+    (["--sample-period-ms", "-1"], "'--sample-period-ms': -1.0 is not in the range x>0"),
+    (["--sample-period-ms", "nan"], "'--sample-period-ms': 'nan' is not a finite number"),
+    (["--sample-period-ms", "2"], "has a time column 't_s'"),
 ])
 def test_bad_options(spiral_case, args, words):
     d, prog, csv = spiral_case

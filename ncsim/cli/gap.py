@@ -14,6 +14,7 @@ from pathlib import Path as FsPath
 
 import click
 
+from ncsim.cli.params import FilePath, FiniteFloatRange
 from ncsim.errors import UsageError
 from ncsim.units import FEED_UNITS, ms_to_s
 
@@ -31,10 +32,10 @@ def _pairs(values, what: str) -> dict:
 
 
 @click.command("gap")
-@click.argument("programs", nargs=-1, type=click.Path(dir_okay=False))
+@click.argument("programs", nargs=-1, type=FilePath())
 @click.option("--machine", "machine_name", default="mikron", show_default=True,
               help="Machine: a bundled name or a TOML file.")
-@click.option("--measured", "measured_file", required=True, type=click.Path(dir_okay=False),
+@click.option("--measured", "measured_file", required=True, type=FilePath(),
               help="Measured trace (CSV) or published values (TOML summary).")
 @click.option("--format", "fmt", type=click.Choice(["auto", "csv", "kit", "umich", "summary"]),
               default="auto", show_default=True, help="How to read --measured.")
@@ -42,12 +43,12 @@ def _pairs(values, what: str) -> dict:
               help="CSV column of a trace key (t, x, y, z, feed, vx, vy, vz, x_cmd, y_cmd, z_cmd, line).")
 @click.option("--unit", "units", multiple=True, metavar="KEY=UNIT",
               help="Unit of a trace key (t=ms, pos=um, feed=m/min, ...).")
-@click.option("--sample-period-ms", type=float, default=None,
+@click.option("--sample-period-ms", type=FiniteFloatRange(min=0, min_open=True), default=None,
               help="Sampling period when the CSV has no time column.")
 @click.option("--work-offset", "work_offsets", multiple=True, metavar="G54=X,Y,Z",
               help="Work offset (mm) of the trace's machine coordinates; default: the setup "
                    "or machine file's, else fitted.")
-@click.option("--setup", "setup_file", default=None, type=click.Path(dir_okay=False),
+@click.option("--setup", "setup_file", default=None, type=FilePath(),
               help="Setup file with the work offsets ([work_offsets] G54 = [x, y, z]).")
 @click.option("--base", default=None,
               help="Base model: full, axis-only or full-minus-EFFECT (default: full for traces, "
@@ -56,10 +57,10 @@ def _pairs(values, what: str) -> dict:
               help="Candidate effects (default: all that apply).")
 @click.option("--no-combine", is_flag=True, help="Skip the combined model.")
 @click.option("--json", "as_json", is_flag=True, help="Print the diagnosis as JSON.")
-@click.option("--plot", "plot_prefix", default=None, metavar="PREFIX",
+@click.option("--plot", "plot_prefix", default=None, metavar="PREFIX", type=FilePath(),
               help="Write figures PREFIX-gap/-summary/-servo.(png|svg).")
 @click.option("--plot-format", type=click.Choice(["png", "svg"]), default="png", show_default=True)
-@click.option("--write-machine", "machine_out", default=None, type=click.Path(dir_okay=False),
+@click.option("--write-machine", "machine_out", default=None, type=FilePath(),
               help="Write the machine file corrected with the fitted parameters.")
 @click.option("--feed-unit", type=click.Choice(FEED_UNITS), default="mm/min", show_default=True,
               help="Feeds of the text output in this unit (the JSON keeps the unit in its keys).")
@@ -73,8 +74,6 @@ def gap(programs, machine_name, measured_file, fmt, columns, units, sample_perio
     if as_json and feed_unit != "mm/min":
         raise UsageError("--feed-unit applies to the text output; the JSON keeps the unit in "
                          "its key names")
-    if sample_period_ms is not None and not sample_period_ms > 0:
-        raise UsageError(f"--sample-period-ms must be positive, got {sample_period_ms:g}")
     bar = _ProgressBar()
     try:
         result = diagnose(programs, measured_file, machine_name, fmt=fmt,
@@ -86,6 +85,8 @@ def gap(programs, machine_name, measured_file, fmt, columns, units, sample_perio
                           setup=setup_file, progress=bar)
     finally:
         bar.close()
+    for warning in result.machine.warnings:
+        click.echo(warning.render(), err=True)
     out = result.as_dict()
     if machine_out:
         try:

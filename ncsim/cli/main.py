@@ -25,16 +25,31 @@ import click
 from ncsim import __version__
 from ncsim.cli.batch import batch
 from ncsim.cli.gap import gap
+from ncsim.cli.params import FilePath, FiniteFloatRange
 from ncsim.errors import ExitStatus, NcsimError, UsageError
 from ncsim.units import FEED_UNITS, s_to_ms
 
 
 class NcsimGroup(click.Group):
-    """A click group that turns ncsim errors into one line on stderr and exit status 2."""
+    """A click group that turns ncsim errors and usage errors into one line on stderr and exit
+    status 2, and Ctrl-C into exit status 130 (128 + SIGINT, as shells do; 1 means a failed
+    check)."""
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        try:                     # the group's own options: `ncsim --badopt`
+            return super().parse_args(ctx, args)
+        except click.UsageError as exc:
+            if type(exc).__name__ == "NoArgsIsHelpError":
+                raise
+            click.echo(_usage_line(exc), err=True)
+            ctx.exit(int(ExitStatus.BAD_INPUT))
 
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
+        except KeyboardInterrupt:
+            click.echo("ncsim: interrupted", err=True)
+            ctx.exit(int(ExitStatus.INTERRUPTED))
         except NcsimError as exc:
             text = exc.render()
             if isinstance(exc, UsageError) and ctx.invoked_subcommand:  # no file to name
@@ -71,10 +86,10 @@ def cli() -> None:
 
 
 @cli.command("parse")
-@click.argument("program", type=click.Path(dir_okay=False))
+@click.argument("program", type=FilePath())
 @click.option("--machine", "machine_name", default=None,
               help="Machine: a bundled name (mikron) or a TOML file; gives work offsets and circle tolerances.")
-@click.option("--setup", "setup_file", default=None, type=click.Path(dir_okay=False),
+@click.option("--setup", "setup_file", default=None, type=FilePath(),
               help="Setup TOML with [work_offsets] G54 = [x, y, z] (overrides the machine's).")
 @click.option("--json", "as_json", is_flag=True, help="Print the segments and summary as JSON.")
 @click.option("--limit", type=click.IntRange(min=0), default=None, help="Print only the first N segments.")
@@ -87,7 +102,7 @@ def parse_cmd(program, machine_name, setup_file, as_json, limit) -> None:
     machine = load_machine(machine_name) if machine_name else None
     offsets = load_setup(setup_file) if setup_file else None
     result = interpret_file(program, machine, setup_offsets=offsets)
-    for warning in result.warnings:
+    for warning in (machine.warnings if machine else ()) + result.warnings:
         click.echo(warning.render(), err=True)
     path = result.path
     shown = path.n if limit is None else min(limit, path.n)
@@ -214,7 +229,7 @@ def simulation_options(func):
         func = click.option(flag, f"no_{field}", is_flag=True, help=f"Switch off {what}.")(func)
     func = click.option("--accel-mode", type=click.Choice(ACCEL_MODES, case_sensitive=False),
                         default=None, help="Force SOFT, BRISK or DRIVE on every block.")(func)
-    func = click.option("--setup", "setup_file", default=None, type=click.Path(dir_okay=False),
+    func = click.option("--setup", "setup_file", default=None, type=FilePath(),
                         help="Setup TOML with [work_offsets] G54 = [x, y, z] "
                              "(overrides the machine's).")(func)
     return func
@@ -307,16 +322,16 @@ def _echo_warnings(sim) -> None:
 # ---------------------------------------------------------------------------------------------
 
 @cli.command("run")
-@click.argument("program", type=click.Path(dir_okay=False))
+@click.argument("program", type=FilePath())
 @machine_option()
 @simulation_options
 @click.option("--json", "as_json", is_flag=True,
               help="Print the JSON summary (README 'JSON summary') instead of text.")
 @click.option("--top", type=click.IntRange(min=0), default=10, show_default=True,
               help="Blocks listed as losing the most time.")
-@click.option("--trace", "trace_file", type=click.Path(dir_okay=False), default=None,
+@click.option("--trace", "trace_file", type=FilePath(), default=None,
               help="Write the sampled trace to this CSV file (README 'CSV trace').")
-@click.option("--dt", "dt_s", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--dt", "dt_s", type=FiniteFloatRange(min=0, min_open=True), default=None,
               metavar="SECONDS", help="Trace sampling period [default: the IPO cycle].")
 @click.option("--trace-columns", default="default", show_default=True,
               help="Trace columns: 'default', 'all' or a comma-separated list.")
@@ -404,14 +419,14 @@ def _crosscheck_text(c: dict) -> str:
 # ---------------------------------------------------------------------------------------------
 
 @cli.command("plot")
-@click.argument("program", type=click.Path(dir_okay=False), required=False)
+@click.argument("program", type=FilePath(), required=False)
 @machine_option(required=False)
 @simulation_options
-@click.option("--trace", "trace_file", type=click.Path(dir_okay=False), default=None,
+@click.option("--trace", "trace_file", type=FilePath(), default=None,
               help="Plot a trace saved by `ncsim run --trace` instead of simulating.")
-@click.option("--output", "-o", "output", type=click.Path(dir_okay=False), required=True,
+@click.option("--output", "-o", "output", type=FilePath(), required=True,
               help="Figure file: .png, .svg or .pdf.")
-@click.option("--dt", "dt_s", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--dt", "dt_s", type=FiniteFloatRange(min=0, min_open=True), default=None,
               metavar="SECONDS",
               help="Sampling period [default: the time shown / 20000, at most the IPO cycle; "
                    "traces over 200,000 samples are thinned for drawing].")
@@ -499,22 +514,25 @@ def _plot_dt_s(sim, shown_s: float | None = None) -> float:
 # ---------------------------------------------------------------------------------------------
 
 @cli.command("check")
-@click.argument("program", type=click.Path(dir_okay=False))
+@click.argument("program", type=FilePath())
 @machine_option()
 @simulation_options
-@click.option("--max-time", "max_time_s", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--max-time", "max_time_s", type=FiniteFloatRange(min=0, min_open=True), default=None,
               metavar="SECONDS", help="Fail if the cycle time is longer.")
-@click.option("--min-feed-ratio", type=click.FloatRange(0, 1), default=None, metavar="R",
+@click.option("--min-feed-ratio", type=FiniteFloatRange(0, 1), default=None, metavar="R",
               help="Fail if feed_efficiency (ideal time at the programmed feed / real time) is lower.")
-@click.option("--max-limited-fraction", type=click.FloatRange(0, 1), default=None, metavar="F",
+@click.option("--max-limited-fraction", type=FiniteFloatRange(0, 1), default=None, metavar="F",
               help="Fail if a larger share of feed-move time is held below the programmed feed.")
-@click.option("--baseline", "baseline_file", type=click.Path(dir_okay=False), default=None,
+@click.option("--baseline", "baseline_file", type=FilePath(), default=None,
               help="A summary saved with `ncsim run --json` to compare the cycle time with.")
-@click.option("--max-regression", "max_regression_pct", type=click.FloatRange(min=0), default=None,
+@click.option("--max-regression", "max_regression_pct", type=FiniteFloatRange(min=0), default=None,
               metavar="PERCENT", help="Fail if the cycle time grew by more than this against --baseline.")
+@click.option("--allow-empty", is_flag=True,
+              help="Pass a program without motion or without M30/M2/M17 (by default it fails: "
+                   "an empty or truncated export).")
 @click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
 def check_cmd(program, machine_name, max_time_s, min_feed_ratio, max_limited_fraction,
-              baseline_file, max_regression_pct, as_json, **params):
+              baseline_file, max_regression_pct, allow_empty, as_json, **params):
     """Check PROGRAM against thresholds, for CI: exit 0 when all hold, 1 when one fails
     (with the blocks to look at), 2 on bad input."""
     from ncsim.report import summary as report
@@ -527,7 +545,8 @@ def check_cmd(program, machine_name, max_time_s, min_feed_ratio, max_limited_fra
     baseline = load_baseline(baseline_file) if baseline_file else None
     thresholds = dict(max_time_s=max_time_s, min_feed_ratio=min_feed_ratio,
                       max_limited_fraction=max_limited_fraction, baseline=baseline,
-                      max_regression_pct=max_regression_pct, baseline_name=baseline_file or "")
+                      max_regression_pct=max_regression_pct, baseline_name=baseline_file or "",
+                      allow_empty=allow_empty)
     progress = Progress([*STAGES, "summary"])
     try:
         sim = simulate(program, machine_name, options, setup_offsets=params["setup_file"],
@@ -547,10 +566,15 @@ def check_cmd(program, machine_name, max_time_s, min_feed_ratio, max_limited_fra
         click.echo(f"{program} on {sim.machine.name}: cycle time {summary['cycle_time_s']:.3f} s")
         for r in results:
             click.echo(r.render())
-        click.echo(f"{len(failed)} of {len(results)} checks failed" if failed
-                   else f"all {len(results)} checks passed")
+        click.echo(f"{len(failed)} of {_checks(len(results))} failed" if failed
+                   else "1 check passed" if len(results) == 1
+                   else f"all {_checks(len(results))} passed")
     if failed:
         sys.exit(int(ExitStatus.CHECK_FAILED))
+
+
+def _checks(n: int) -> str:
+    return f"{n} check" if n == 1 else f"{n} checks"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -569,9 +593,9 @@ def machines_cmd() -> None:
 
 @cli.command("explain")
 @machine_option()
-@click.option("--radius-mm", "radii_mm", type=click.FloatRange(min=0, min_open=True), multiple=True,
+@click.option("--radius-mm", "radii_mm", type=FiniteFloatRange(min=0, min_open=True), multiple=True,
               help="Arc radius of a table row (repeatable) [default: 1 2.5 5 10 20 30 50 100].")
-@click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
+@click.option("--plot", "plot_file", type=FilePath(), default=None,
               help="Also draw the limits against the radius (.png, .svg, .pdf).")
 @click.option("--json", "as_json", is_flag=True, help="Print the table as JSON (feeds in mm/min).")
 @feed_unit_option("Feeds of the text and the plot")
@@ -586,6 +610,8 @@ def explain_cmd(machine_name, radii_mm, plot_file, as_json, feed_unit) -> None:
         from ncsim.report.plot import check_figure_file
         check_figure_file(plot_file)
     machine = load_machine(machine_name)
+    for warning in machine.warnings:
+        click.echo(warning.render(), err=True)
     radii = sorted(set(radii_mm)) if radii_mm else list(DEFAULT_RADII_MM)
     rows = radius_table(machine, radii)
     if as_json:
@@ -673,6 +699,6 @@ cli.add_command(gap)
 def main() -> None:
     try:
         cli.main(prog_name="ncsim", standalone_mode=True)
-    except KeyboardInterrupt:  # pragma: no cover - interactive only
-        click.echo("interrupted", err=True)
-        sys.exit(130)
+    except KeyboardInterrupt:  # pragma: no cover - Ctrl-C while click parses the arguments
+        click.echo("ncsim: interrupted", err=True)
+        sys.exit(int(ExitStatus.INTERRUPTED))

@@ -377,8 +377,9 @@ def load_measured_csv(file, *, columns: Mapping[str, str] | None = None,
     names; ``time_column`` is a shorthand for ``columns["t"]``. ``units`` gives units per key
     (or ``pos`` / ``vel`` for all positions / velocities). With ``sample_period_s`` the time is
     generated as ``row * period`` (``row`` counting data rows from 0, or the value of
-    ``index_column`` when given, so that missing rows appear as dropped samples); a time column
-    is then not read. ``x`` and ``y`` are required; a missing ``z`` is zero. ``preset`` names
+    ``index_column`` when given, so that missing rows appear as dropped samples); a file with a
+    time column of a default name is then refused, never silently re-timed (a preset's time
+    column is set aside). ``x`` and ``y`` are required; a missing ``z`` is zero. ``preset`` names
     a known recorder's column layout (:data:`PRESETS`; ``"auto"``: detected from the header;
     None: none), which ``columns`` override.
     """
@@ -412,8 +413,9 @@ def load_measured_csv(file, *, columns: Mapping[str, str] | None = None,
                                 "; name yours with --column t=NAME, or give the sampling "
                                 "period with --sample-period-ms)",
                                 file=name, column=DEFAULT_COLUMNS["t"][0])
-    if sample_period_s is not None:
-        resolved.pop("t", None)
+    if sample_period_s is not None and "t" in resolved:   # never re-time a file silently
+        raise UsageError(f"{name}: has a time column '{resolved['t'][1]}': a sample period is "
+                         "for files without one")
     index_at = None
     if sample_period_s is not None and index_column is not None:
         index_at = table.find(index_column)

@@ -4,6 +4,10 @@ Each threshold is checked against the JSON summary of ``summary.summary`` and gi
 :class:`CheckResult`: what was measured, the threshold, pass or fail, and for a failure where
 the time goes (the blocks losing the most time, with ``file:line`` and the limit holding them).
 
+Before any threshold, the program itself: one without motion or without a program end
+(M30, M2, M17) -- an empty, comments-only or truncated export -- fails with the reason
+(``program``), unless ``allow_empty``; it is listed only when it fails.
+
 Thresholds (all optional, at least one is needed):
 
 * ``max_time_s``: cycle time (s) at most this;
@@ -104,6 +108,20 @@ def _slower_blocks(summary: dict, baseline: dict) -> tuple[str, ...]:
                  f"the feed)" for d, b in deltas[:WHERE_BLOCKS] if d > 0)
 
 
+def _program_check(summary: dict) -> list[CheckResult]:
+    """A failed ``program`` check for a program that moves nothing or never reaches its end."""
+    reasons = []
+    if summary["blocks"] == 0:
+        reasons.append("no motion")
+    if not summary.get("reached_program_end", True):
+        reasons.append("no M30, M2 or M17 at the end (truncated?)")
+    if not reasons:
+        return []
+    return [CheckResult("program", False, float(summary["blocks"]), 1.0,
+                        f"program: {' and '.join(reasons)}; an empty or truncated export is no "
+                        "pass (--allow-empty accepts it)")]
+
+
 def require_thresholds(max_time_s=None, min_feed_ratio=None, max_limited_fraction=None,
                        baseline=None, max_regression_pct=None) -> None:
     """Raise a one-line UsageError unless at least one threshold is given, and the baseline
@@ -118,11 +136,11 @@ def require_thresholds(max_time_s=None, min_feed_ratio=None, max_limited_fractio
 def evaluate(summary: dict, *, max_time_s: float | None = None,
              min_feed_ratio: float | None = None, max_limited_fraction: float | None = None,
              baseline: dict | None = None, max_regression_pct: float | None = None,
-             baseline_name: str = "baseline") -> list[CheckResult]:
+             baseline_name: str = "baseline", allow_empty: bool = False) -> list[CheckResult]:
     """Check ``summary`` against the given thresholds (module docstring), in that order."""
     require_thresholds(max_time_s, min_feed_ratio, max_limited_fraction, baseline,
                        max_regression_pct)
-    out = []
+    out = [] if allow_empty else _program_check(summary)
     t = summary["cycle_time_s"]
     if max_time_s is not None:
         ok = t <= max_time_s

@@ -39,9 +39,14 @@ SCHEMA_VERSION = 1
 
 
 def piece_blocks(motion) -> np.ndarray:
-    """Block index of every piece (where it starts; a standstill belongs to the next block)."""
-    s_start = motion.path.s_start_mm
-    blk = np.searchsorted(s_start, motion.piece_s_mm + 1e-9, side="right") - 1
+    """Block index of every piece: the block running when it starts (a standstill belongs to
+    the block it waits for). Found by time, not by path length: a piece starts exactly when
+    its block does (both come from the same sums), while a tolerance on s would give the
+    last ramp pieces of a block shorter than it to the next block -- a rapid's time counted
+    as feed time."""
+    t = motion.piece_t_s
+    when = np.where(motion.piece_phase == Phase.STOP, t[1:], t[:-1])
+    blk = np.searchsorted(motion.t_start_s, when, side="right") - 1
     return np.clip(blk, 0, max(motion.path.n - 1, 0))
 
 
@@ -139,6 +144,7 @@ def summary(sim, *, top: int = 10, include_blocks: bool = True) -> dict:
         feed_time_s=feed_time,
         path_length_mm=path.total_length_mm,
         blocks=path.n,
+        reached_program_end=sim.interpreted.complete if sim.interpreted is not None else True,
         feed_efficiency=ideal / feed_time if feed_time > 0 else 1.0,
         limited_fraction=limited / feed_time if feed_time > 0 else 0.0,
         time_by_limit_s=tbl["feed"], rapid_time_by_limit_s=tbl["rapid"],
