@@ -1,7 +1,9 @@
 """The pipeline in one call: program -> path (interpret) -> limits -> feed law (plan).
 
 :func:`simulate` runs one program; :func:`run_batch` runs many, in parallel processes on this
-machine or on a Dask distributed cluster. Sampling (``ncsim.plan.sample``) is left to the
+machine or on a Dask distributed cluster. A cluster's workers may run on other machines, so
+they get each program as text with the subprogram files it calls (:func:`program_source`),
+never a path. Sampling (``ncsim.plan.sample``) is left to the
 caller: a summary needs only the planned motion, which keeps million-block runs cheap.
 
 Batch runs simulate each program in its own task (:func:`simulate_one`); a task never raises
@@ -13,9 +15,10 @@ from __future__ import annotations
 
 import glob
 import os
+import re
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path as FsPath
 from typing import Callable, Iterable
 
@@ -63,9 +66,11 @@ def resolve_machine(machine: MachineSpec | str | FsPath) -> MachineSpec:
 def simulate(program: str | FsPath, machine: MachineSpec | str | FsPath,
              options: ModelOptions = FULL_MODEL, *, text: str | None = None,
              setup_offsets: dict | str | FsPath | None = None,
-             progress: Callable[[str], None] | None = None) -> Simulation:
-    """Interpret ``program`` (a file, or ``text`` named ``program``) and plan it on ``machine``
-    (a :class:`MachineSpec`, a TOML file or a bundled machine's name).
+             progress: Callable[[str], None] | None = None,
+             search_dir: str | FsPath | None = None) -> Simulation:
+    """Interpret ``program`` (a file, or ``text`` named ``program``, whose subprogram files are
+    looked up in ``search_dir``) and plan it on ``machine`` (a :class:`MachineSpec`, a TOML
+    file or a bundled machine's name).
 
     ``setup_offsets`` are work offsets (``{"G54": (x, y, z)}``) or a setup TOML file that gives
     them (:func:`ncsim.config.load_setup`). ``progress`` is called with the name of each stage
@@ -81,7 +86,8 @@ def simulate(program: str | FsPath, machine: MachineSpec | str | FsPath,
     if text is None:
         result = interpret_file(program, spec, setup_offsets=setup_offsets)
     else:
-        result = interpret_text(text, str(program), spec, setup_offsets=setup_offsets)
+        result = interpret_text(text, str(program), spec, setup_offsets=setup_offsets,
+                                search_dir=search_dir)
     t1 = time.perf_counter()
     if progress is not None:
         progress("plan")
@@ -139,14 +145,71 @@ def expand_programs(patterns: Iterable[str]) -> list[str]:
     return list(seen)
 
 
-def simulate_one(program: str, machine: MachineSpec, options: ModelOptions = FULL_MODEL) -> BatchResult:
+@dataclass(frozen=True)
+class ProgramSource:
+    """A program as text, with the subprogram files beside it that it may call: all a worker
+    on another machine needs (it cannot read the client's paths)."""
+
+    program: str                     # the name as given (results and errors use it)
+    text: str
+    subprograms: dict[str, str] = field(default_factory=dict)   # file name -> text
+
+
+_SUBPROGRAM_SUFFIXES = (".spf", ".mpf")
+_NAME = re.compile(r"[A-Z_][A-Z0-9_]*")
+
+
+def program_source(program: str) -> ProgramSource:
+    """Read ``program`` and every file beside it that a name in it (or in such a file, and so
+    on) could call: ``NAME.SPF``/``NAME.MPF`` for any word ``NAME`` of the text, as the
+    interpreter looks them up. Reads more than needed rather than less (a word in a comment
+    brings its file too)."""
+    from ncsim.nc.parse import read_program_text
+
+    path = FsPath(program)
+    text = read_program_text(path)
+    try:
+        beside = {p.stem.upper(): p for p in path.parent.iterdir()
+                  if p.suffix.lower() in _SUBPROGRAM_SUFFIXES and p.is_file() and p != path}
+    except OSError:
+        beside = {}
+    files: dict[str, str] = {}
+    todo = [text]
+    while todo:
+        for name in set(_NAME.findall(todo.pop().upper())):
+            for p in [q for stem, q in beside.items() if stem == name and q.name not in files]:
+                files[p.name] = read_program_text(p)
+                todo.append(files[p.name])
+    return ProgramSource(str(program), text, files)
+
+
+def simulate_source(source: ProgramSource, machine: MachineSpec,
+                    options: ModelOptions = FULL_MODEL) -> BatchResult:
+    """:func:`simulate_one` of a program sent as text (runs on a Dask worker anywhere): its
+    subprograms are written to a scratch folder for the interpreter's lookup; errors in them
+    name them as the client knows them."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="ncsim-") as scratch:
+        for name, text in source.subprograms.items():
+            (FsPath(scratch) / name).write_text(text, encoding="utf-8")
+        result = simulate_one(source.program, machine, options, text=source.text,
+                              search_dir=scratch)
+    if result.error and scratch in result.error:
+        here = str(FsPath(source.program).parent)
+        result = replace(result, error=result.error.replace(scratch, here))
+    return result
+
+
+def simulate_one(program: str, machine: MachineSpec, options: ModelOptions = FULL_MODEL, *,
+                 text: str | None = None, search_dir: str | FsPath | None = None) -> BatchResult:
     """Simulate one program and summarise it (runs in a worker process)."""
     from ncsim.report.summary import summary
 
     t0 = time.perf_counter()
     worker = f"{os.uname().nodename}:{os.getpid()}"
     try:
-        sim = simulate(program, machine, options)
+        sim = simulate(program, machine, options, text=text, search_dir=search_dir)
         s = summary(sim, top=0, include_blocks=False)
         return BatchResult(program=program, ok=True, cycle_time_s=s["cycle_time_s"],
                            blocks=s["blocks"], path_length_mm=s["path_length_mm"],
@@ -198,7 +261,14 @@ def _run_dask(programs, machine, options, scheduler: str, done) -> None:
     except (OSError, TimeoutError) as exc:
         raise UsageError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
     try:
-        futures = client.map(simulate_one, programs, machine=machine, options=options, pure=False)
+        sources = []
+        for program in programs:     # read here: a worker elsewhere cannot read our paths
+            try:
+                sources.append(program_source(program))
+            except NcsimError as exc:
+                done(BatchResult(program=program, ok=False, error=exc.render()))
+        futures = client.map(simulate_source, sources, machine=machine, options=options,
+                             pure=False)
         for fut in dask_completed(futures):
             done(fut.result())
     finally:

@@ -54,6 +54,38 @@ def test_no_match_is_a_usage_error():
         expand_programs(["programs/does_not_exist_*.mpf"])
 
 
+def _job_with_a_subprogram(folder):
+    """A main program calling a subprogram file beside it, and a file it does not call."""
+    folder.mkdir()
+    (folder / "main.mpf").write_text("G17 G90 G64 F6000\nG1 X5\nPOCKET_A\nG0 Z5\nM30\n")
+    (folder / "POCKET_A.SPF").write_text("G1 X10 Y5\nG2 X10 Y5 I-5 J0\nM17\n")
+    (folder / "UNUSED.SPF").write_text("this is not even a program\n")
+
+
+def test_dask_workers_elsewhere_get_the_program_text(mikron, tmp_path, monkeypatch):
+    """Workers started in another folder (as on other machines) cannot read the client's
+    relative paths: they get each program, and the subprograms it calls, as text."""
+    import distributed
+
+    from ncsim.pipeline import program_source
+
+    elsewhere = tmp_path / "worker_home"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)        # the workers start here ...
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        monkeypatch.chdir(tmp_path)     # ... the client reads from here
+        _job_with_a_subprogram(tmp_path / "job")
+        jobs = ["job/main.mpf", "job/missing.mpf"]
+        dask_results = run_batch(jobs, mikron, scheduler=cluster.scheduler_address)
+    assert [r.program for r in dask_results] == jobs
+    local = simulate_one("job/main.mpf", mikron)
+    assert local.ok and dask_results[0].ok, dask_results[0].error
+    assert dask_results[0].cycle_time_s == pytest.approx(local.cycle_time_s, rel=1e-12)
+    assert not dask_results[1].ok and dask_results[1].error.startswith("job/missing.mpf: cannot read")
+    assert set(program_source("job/main.mpf").subprograms) == {"POCKET_A.SPF"}
+
+
 def test_dask_local_cluster_gives_the_same_results(mikron):
     import distributed
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
@@ -64,6 +96,19 @@ def test_dask_local_cluster_gives_the_same_results(mikron):
     for d, loc in zip(dask_results, local):
         assert d.ok and d.cycle_time_s == pytest.approx(loc.cycle_time_s, rel=1e-12)
     assert len({r.worker for r in dask_results}) >= 1
+
+
+def test_an_error_in_a_sent_subprogram_names_it_as_the_client_knows_it(mikron, tmp_path,
+                                                                        monkeypatch):
+    from ncsim.pipeline import program_source, simulate_source
+
+    monkeypatch.chdir(tmp_path)
+    _job_with_a_subprogram(tmp_path / "job")
+    (tmp_path / "job" / "POCKET_A.SPF").write_text("G1 X10 Y5\nG2 X20\nM17\n")   # no centre
+    source = program_source("job/main.mpf")
+    monkeypatch.chdir(tmp_path / "job")   # the worker runs elsewhere
+    result = simulate_source(source, mikron)
+    assert not result.ok and result.error.startswith("job/POCKET_A.SPF:2:"), result.error
 
 
 def test_jobs_must_be_positive(mikron):
