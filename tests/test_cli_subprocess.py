@@ -61,3 +61,16 @@ def test_python_dash_m(tmp_path):
     r = subprocess.run([sys.executable, "-m", "ncsim", "--version"], cwd=tmp_path,
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 0 and r.stdout.strip() == "ncsim, version 0.1.0"
+
+
+def test_a_python_warning_reaching_the_user_is_one_line(tmp_path):
+    """None should (inputs are validated; the suite turns RuntimeWarnings into errors), but a
+    warning that does reach stderr is one line, without Python's source line under it."""
+    code = ("import sys, numpy as np; from ncsim.cli import main as m; "
+            "m.cli.add_command(m.click.Command('nan', callback=lambda: np.float64(0) / 0)); "
+            "sys.argv = ['ncsim', 'nan']; m.main()")
+    r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stderr.splitlines() == ["ncsim: warning: RuntimeWarning: invalid value encountered in "
+                                     "scalar divide (<string>:1)"]

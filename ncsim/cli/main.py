@@ -696,7 +696,17 @@ cli.add_command(batch)
 cli.add_command(gap)
 
 
+def one_line_warning(message, category, filename, lineno, line=None) -> str:
+    """A Python warning (numpy's RuntimeWarning on a degenerate value...) as one line, without
+    the source line Python prints under it: ncsim's own inputs are validated so that none
+    should reach a user (the test suite turns them into errors), but one that does must not
+    look like a crash."""
+    return f"ncsim: warning: {category.__name__}: {message} ({os.path.basename(filename)}:{lineno})\n"
+
+
 def main() -> None:
+    import warnings
+    warnings.formatwarning = one_line_warning
     try:
         cli.main(prog_name="ncsim", standalone_mode=True)
     except KeyboardInterrupt:  # pragma: no cover - Ctrl-C while click parses the arguments
