@@ -255,6 +255,10 @@ def test_a_move_that_rounds_to_nothing_makes_no_block(tmp_path):
     ("G1 X10 F1000\nG1 Y10\n", ["{p}:2:0: warning: the program ends without M30, M2 or M17 (truncated?)"]),
     ("G1 X10 F1000\nM17\n", []),
     ("G4 F1\nM30\n", ["{p}: warning: no motion: the program moves no axis"]),
+    # a subprogram file run on its own (real ones start with comments): not a truncated export
+    ("; pocket\nPROC POCKET\nG1 X1 F100\nRET\n",
+     ["{p}: warning: the file only defines PROC POCKET: nothing here calls it (run the program that does)",
+      "{p}: warning: no motion: the program moves no axis"]),
 ])
 def test_an_empty_or_truncated_program_is_a_warning(tmp_path, text, warnings):
     p = tmp_path / "cut.mpf"

@@ -81,7 +81,7 @@ def cli() -> None:
     ncsim check PROGRAM --machine mikron --max-time 60
     ncsim machines / ncsim explain --machine mikron
 
-    Exit status: 0 ok, 1 a `check` threshold failed, 2 bad input.
+    Exit status: 0 ok, 1 a `check` threshold failed, 2 bad input, 130 interrupted.
     """
 
 

@@ -174,14 +174,20 @@ class Interpreter:
         builder = state.out.builder
         builder.end_dwell_s = state.st.pending_dwell_s
         path = builder.build()
-        complete = state.ended or not self.ran_off_end
-        self._warn_empty(program, path.n, complete)
+        procs_only = len(units) > 1 and not any(_has_content(i) for i in units[0].items)
+        complete = state.ended or not self.ran_off_end or procs_only
+        self._warn_empty(program, path.n, complete, [u.name for u in units[1:]] * procs_only)
         return InterpretResult(path, state.warnings.result(), state.blocks,
                                tuple(state.recorded), complete)
 
-    def _warn_empty(self, program: P.Program, n_segments: int, complete: bool) -> None:
-        """An export cut short or empty is a warning, never a silent zero cycle time."""
+    def _warn_empty(self, program: P.Program, n_segments: int, complete: bool,
+                    procs: list[str]) -> None:
+        """An export cut short or empty is a warning, never a silent zero cycle time; so is a
+        file of PROCs that nothing calls (a subprogram run on its own)."""
         warnings = self.state.warnings
+        if procs:
+            warnings.add("end", f"the file only defines PROC {', '.join(procs)}: nothing here "
+                         "calls it (run the program that does)", program.file, 0)
         if not complete:
             warnings.add("end", "the program ends without M30, M2 or M17 (truncated?)",
                          program.file, program.n_lines)
@@ -242,3 +248,10 @@ class Interpreter:
             self.moves.motion(ctx)
         self.calls.block_calls(ctx)
         self.calls.program_end(ctx)
+
+
+def _has_content(item) -> bool:
+    """Whether a program item does anything (not only comments and empty lines)."""
+    if isinstance(item, P.PlainRun):
+        return any(_has_content(item.block(i)) for i in range(len(item)))
+    return bool(item.items) or item.statement is not None
