@@ -86,9 +86,11 @@ def assert_feasible(motion, lim, s_junction, tol=1e-6):
     ts = np.linspace(0, t[-1], 20001)
     s, v, a, j = evaluate(motion, ts)
     n = len(lim.cap_mm_s)
-    # a sample on a junction may obey either adjacent block's limits
-    right = np.clip(np.searchsorted(s_junction, s, side="right") - 1, 0, n - 1)
-    left = np.clip(np.searchsorted(s_junction, s, side="left") - 1, 0, n - 1)
+    # a sample on a junction may obey either adjacent block's limits; "on" up to the rounding
+    # of s (the last sample lands 1e-14 mm past the end: with a block without motion last, an
+    # exact comparison judged the final ramp by that block's limits, about once in 3000 paths)
+    right = np.clip(np.searchsorted(s_junction, s + 1e-9, side="right") - 1, 0, n - 1)
+    left = np.clip(np.searchsorted(s_junction, s - 1e-9, side="left") - 1, 0, n - 1)
 
     def allowed(per_block):
         return np.maximum(per_block[right], per_block[left]) * (1 + tol) + 1e-9
