@@ -48,7 +48,8 @@ def test_reach_inverts_distance(v0, v1, j, a):
     distance = float(ramp_distance_mm(v0, v1, j, a))
     got = float(ramp_reach_mm_s(v0, distance, j, a))
     assert got == pytest.approx(v1, rel=1e-9, abs=1e-9)
-    assert K.ramp_reach_scalar(v0, distance, j, a) == pytest.approx(v1, rel=1e-9, abs=1e-9)
+    for reach in (K.ramp_reach_scalar.py, K.ramp_reach_scalar.compiled):  # plain and numba
+        assert reach(v0, distance, j, a) == pytest.approx(v1, rel=1e-9, abs=1e-9)
 
 
 def test_eq16_paper_form_jerk_only():
@@ -76,7 +77,8 @@ def test_peak_fills_the_block_or_reaches_the_cap(va, vb, length, j, a, cap):
     if vp < cap * (1 - 1e-9):
         # phase B vanishes: eq. 16 holds
         assert used == pytest.approx(length, rel=1e-6, abs=1e-6)
-    assert K.peak_feed_scalar(va, vb, length, j, a, cap) == pytest.approx(vp, rel=1e-9, abs=1e-9)
+    for peak in (K.peak_feed_scalar.py, K.peak_feed_scalar.compiled):  # plain and numba
+        assert peak(va, vb, length, j, a, cap) == pytest.approx(vp, rel=1e-9, abs=1e-9)
 
 
 def ruckig_duration(length, v0, v1, vmax, amax, jmax):

@@ -5,7 +5,8 @@ rendering on stderr and exits with :class:`ncsim.errors.ExitStatus` (never a tra
 Bad command-line usage (an unknown option, a value out of range) is one line as well, exit 2.
 
 Commands: ``run`` (cycle time and where the feed is limited), ``plot``, ``check`` (CI
-thresholds), ``machines``, ``explain`` (a machine's derived limits), ``parse``, and in their
+thresholds), ``machines``, ``explain`` (a machine's derived limits), ``parse``, ``warmup``
+(compile the numba kernels ahead; a first compilation is announced on stderr), and in their
 own modules ``batch`` (``cli.batch``) and ``gap`` (``cli.gap``). Heavy modules (the parser, the
 planner, matplotlib, the gap diagnosis) are imported inside the commands that need them, so
 that ``ncsim --help`` is quick and ``ncsim run`` never imports matplotlib.
@@ -83,6 +84,14 @@ def cli() -> None:
 
     Exit status: 0 ok, 1 a `check` threshold failed, 2 bad input, 130 interrupted.
     """
+    from ncsim import jit
+    jit.on_compile(_compile_notice)
+
+
+def _compile_notice(text: str) -> None:
+    """numba starts compiling the kernels: say so (also in logs), over a progress line."""
+    tty = getattr(sys.stderr, "isatty", None)
+    click.echo(("\r\033[K" if tty and tty() else "") + text, err=True)
 
 
 @cli.command("parse")
@@ -686,6 +695,14 @@ def _explain_text(machine, ext, rows, feed_unit: str = "mm/min") -> str:
     out.append("  (V_Jt, V_An, V_t: min..max over the direction; V_tcy: one full circle per block; "
                "V_fr: a line entering the arc, weakest tangent)")
     return "\n".join(out)
+
+
+@cli.command("warmup")
+def warmup_cmd() -> None:
+    """Compile ncsim's numba kernels now (once after installing, about 20 s), so that no later
+    run pauses to compile. Programs under a few thousand blocks never need them."""
+    from ncsim.pipeline import warmup
+    click.echo(f"kernels ready ({warmup():.1f} s); later runs load them from numba's cache")
 
 
 # ---------------------------------------------------------------------------------------------

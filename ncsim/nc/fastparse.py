@@ -10,7 +10,8 @@ of. Anything else (including an empty ``G`` or a 16-digit number) is not plain a
 the Lark grammar, which remains the definition of the language: every plain line means
 exactly what Lark makes of it (``tests/test_fastpath.py`` proves it by property tests).
 
-The scanner is one pass over the UTF-8 bytes, compiled with numba. A number is read as an
+The scanner is one pass over the UTF-8 bytes, compiled with numba (``ncsim.jit``: programs
+under about 8,000 lines are scanned as plain Python, over ``bytes``). A number is read as an
 integer mantissa ``m < 10**15`` and ``d <= 22`` decimals and converted as ``m / 10**d``: both
 are exact doubles, so the one correctly rounded division gives exactly ``float(text)``.
 """
@@ -19,7 +20,7 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from numba import njit
+from ncsim.jit import kernel
 
 from ncsim.nc import program as P
 
@@ -33,19 +34,19 @@ _NL, _SP, _TAB, _SEMI, _DOT, _PLUS, _MINUS = 10, 32, 9, 59, 46, 43, 45
 _N, _G = 78, 71
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _is_digit(c):
     return 48 <= c <= 57
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _skip_ws(buf, pos, end):
     while pos < end and (buf[pos] == _SP or buf[pos] == _TAB):
         pos += 1
     return pos
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _read_number(buf, pos, end, pow10):
     """Read ``[+-](digits[.digits]|.digits)`` at pos. Returns (ok, value, new_pos)."""
     neg = False
@@ -83,7 +84,7 @@ def _read_number(buf, pos, end, pow10):
     return True, value, pos
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _scan_line(buf, a, b, letters, pow10, numbers, g, values, cols, row):
     """Scan buf[a:b] as a plain line into row ``row`` of the columns; False if not plain."""
     pos = _skip_ws(buf, a, b)
@@ -121,35 +122,46 @@ def _scan_line(buf, a, b, letters, pow10, numbers, g, values, cols, row):
     return pos == b
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
+def _clear_row(numbers, g, values, cols, row):
+    numbers[row] = -1
+    g[row] = -1
+    for k in range(values.shape[1]):
+        values[row, k] = np.nan
+    for k in range(cols.shape[1]):
+        cols[row, k] = 0
+
+
+@kernel(nogil=True, python_below=200_000)  # bytes: about 8,000 CAM lines
 def _scan(buf, letters, pow10):
+    size = len(buf)
     n_lines = 0
     for c in buf:
         if c == _NL:
             n_lines += 1
-    if buf.shape[0] > 0 and buf[buf.shape[0] - 1] != _NL:
+    if size > 0 and buf[size - 1] != _NL:
         n_lines += 1
-    plain = np.zeros(n_lines, dtype=np.bool_)
+    # np.empty and a fill per row (numba compiles np.full and np.zeros once per dtype and
+    # shape: seconds in all); values a line does not set stay NaN, -1 or 0
+    n_letters = letters.shape[0]
+    plain = np.empty(n_lines, dtype=np.bool_)
     starts = np.empty(n_lines, dtype=np.int64)
     ends = np.empty(n_lines, dtype=np.int64)
-    numbers = np.full(n_lines, -1, dtype=np.int64)
-    g = np.full(n_lines, -1, dtype=np.int8)
-    values = np.full((n_lines, letters.shape[0]), np.nan)
-    cols = np.zeros((n_lines, letters.shape[0] + 2), dtype=np.int32)
+    numbers = np.empty(n_lines, dtype=np.int64)
+    g = np.empty(n_lines, dtype=np.int8)
+    values = np.empty((n_lines, n_letters))
+    cols = np.empty((n_lines, n_letters + 2), dtype=np.int32)
     a = 0
     for row in range(n_lines):
         b = a
-        while b < buf.shape[0] and buf[b] != _NL:
+        while b < size and buf[b] != _NL:
             b += 1
         starts[row] = a
         ends[row] = b
-        if _scan_line(buf, a, b, letters, pow10, numbers, g, values, cols, row):
-            plain[row] = True
-        else:  # leave no half-read values behind
-            numbers[row] = -1
-            g[row] = -1
-            values[row, :] = np.nan
-            cols[row, :] = 0
+        _clear_row(numbers, g, values, cols, row)
+        plain[row] = _scan_line(buf, a, b, letters, pow10, numbers, g, values, cols, row)
+        if not plain[row]:  # leave no half-read values behind
+            _clear_row(numbers, g, values, cols, row)
         a = b + 1
     return plain, starts, ends, numbers, g, values, cols
 
@@ -158,8 +170,9 @@ def scan_plain(text: str):
     """Scan every line. Returns (plain mask, byte starts, byte ends, numbers, g, values, cols)
     with one row per line; the value columns are meaningful where ``plain`` is True."""
     data = text.encode("utf-8", "surrogatepass")
-    buf = np.frombuffer(data, dtype=np.uint8)
-    return (data,) + _scan(buf, _AXIS_LETTERS, _POW10)
+    if _scan.runs_compiled(len(data)):
+        return (data,) + _scan(np.frombuffer(data, dtype=np.uint8), _AXIS_LETTERS, _POW10)
+    return (data,) + _scan.py(data, _AXIS_LETTERS, _POW10)  # bytes: items are Python ints
 
 
 def _run_bounds(plain: np.ndarray):

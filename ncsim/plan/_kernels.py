@@ -1,4 +1,5 @@
-"""Sequential inner loops of the planner, compiled with numba.
+"""Sequential inner loops of the planner, compiled with numba (``ncsim.jit``: plain Python on
+small programs).
 
 The look-ahead's backward/forward passes are recurrences over knots (each knot's feed
 depends on its neighbour's), which numpy cannot vectorise; a compiled loop does a million
@@ -11,10 +12,16 @@ import math
 
 import numpy as np
 
-from numba import njit
+from ncsim.jit import kernel
 
 
-@njit(cache=True)
+@kernel(python=math.cbrt)
+def cbrt(x):
+    """The real cube root (libm's ``cbrt`` both ways)."""
+    return np.cbrt(x)
+
+
+@kernel
 def ramp_reach_scalar(v0, distance, jerk, accel):
     """Scalar twin of :func:`ncsim.plan.ramps.ramp_reach_mm_s` (same closed forms)."""
     if not math.isfinite(distance) or not math.isfinite(v0):
@@ -22,7 +29,7 @@ def ramp_reach_scalar(v0, distance, jerk, accel):
     return v0 + reach_gain_scalar(v0, distance, jerk, accel)
 
 
-@njit(cache=True)
+@kernel
 def reach_gain_scalar(v0, distance, jerk, accel):
     """The feed gain ``v1 - v0`` of :func:`ramp_reach_scalar`, without forming ``v1``
     (no rounding when the gain is tiny against v0)."""
@@ -32,7 +39,7 @@ def reach_gain_scalar(v0, distance, jerk, accel):
     q = distance * math.sqrt(jerk)
     # Cardano for y^3 + p y - q = 0 (p >= 0: one real root), written c - (p/3)/c to avoid a
     # second cube root; one Newton step polishes the rounding of the difference.
-    c = np.cbrt(0.5 * q + math.sqrt(0.25 * q * q + p * p * p / 27.0))
+    c = cbrt(0.5 * q + math.sqrt(0.25 * q * q + p * p * p / 27.0))
     y = c - (p / 3.0) / c
     y = y - (y * y * y + p * y - q) / (3.0 * y * y + p + 1e-300)
     x = y * y
@@ -45,7 +52,7 @@ def reach_gain_scalar(v0, distance, jerk, accel):
     return max(x, 0.0)
 
 
-@njit(cache=True)
+@kernel
 def knot_feeds(caps, section_length, section_jerk, section_accel):
     """Backward then forward pass over knots: each knot's feed is at most its cap, at most
     what one ramp brings down to the next knot's feed, at most what one ramp brings up
@@ -70,7 +77,7 @@ def knot_feeds_array(caps, section_length, section_jerk, section_accel) -> np.nd
                       np.ascontiguousarray(section_accel, dtype=np.float64))
 
 
-@njit(cache=True)
+@kernel
 def ramp_time_scalar(dv, jerk, accel):
     """Scalar twin of :func:`ncsim.plan.ramps.ramp_time_s`."""
     dv = abs(dv)
@@ -79,19 +86,19 @@ def ramp_time_scalar(dv, jerk, accel):
     return dv / accel + accel / jerk
 
 
-@njit(cache=True)
+@kernel
 def ramp_distance_scalar(v0, v1, jerk, accel):
     """Scalar twin of :func:`ncsim.plan.ramps.ramp_distance_mm`."""
     return 0.5 * (v0 + v1) * ramp_time_scalar(v1 - v0, jerk, accel)
 
 
-@njit(cache=True)
+@kernel
 def _rise_distance(v_low, dv, jerk, accel):
     """Distance of a ramp between v_low and v_low + dv, from dv itself (no cancellation)."""
     return 0.5 * (2.0 * v_low + dv) * ramp_time_scalar(dv, jerk, accel)
 
 
-@njit(cache=True)
+@kernel
 def _rise_distance_slope(v_low, dv, jerk, accel):
     """d/d(dv) of :func:`_rise_distance`."""
     if dv <= 0.0:
@@ -103,13 +110,13 @@ def _rise_distance_slope(v_low, dv, jerk, accel):
     return 0.5 * t + 0.5 * (2.0 * v_low + dv) * dt
 
 
-@njit(cache=True)
+@kernel
 def _peak_excess(va, vb, ga, gb, u2, length, jerk, accel):
     return (_rise_distance(va, ga + u2, jerk, accel) + _rise_distance(vb, gb + u2, jerk, accel)
             - length)
 
 
-@njit(cache=True)
+@kernel
 def peak_feed_scalar(va, vb, length, jerk, accel, cap):
     """Scalar twin of :func:`ncsim.plan.ramps.peak_feed_mm_s` (generalised eq. 16).
 
@@ -153,7 +160,7 @@ def peak_feed_scalar(va, vb, length, jerk, accel, cap):
     return lo + u * u
 
 
-@njit(cache=True)
+@kernel
 def peak_feeds(va, vb, length, jerk, accel, cap):
     out = np.empty(va.shape[0])
     for i in range(va.shape[0]):
@@ -161,7 +168,7 @@ def peak_feeds(va, vb, length, jerk, accel, cap):
     return out
 
 
-@njit(cache=True)
+@kernel
 def _ramp_segments(v0, v1, jerk, accel):
     """Durations t1, t2 and signed jerk of a ramp (see ncsim.plan.ramps.ramp_pieces)."""
     dv = abs(v1 - v0)
@@ -172,7 +179,7 @@ def _ramp_segments(v0, v1, jerk, accel):
     return t1, t2, sign * jerk
 
 
-@njit(cache=True)
+@kernel
 def _emit_ramp(v_from, v_to, J, A, s, t, m, phase, limit, t0, s0, v0, a0, jj, ph, lim):
     """Append the (up to three) constant-jerk pieces of one ramp starting at path length s
     and time t; returns the new time and piece count."""
@@ -190,7 +197,7 @@ def _emit_ramp(v_from, v_to, J, A, s, t, m, phase, limit, t0, s0, v0, a0, jj, ph
     return t, m
 
 
-@njit(cache=True)
+@kernel
 def section_pieces(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_dwell,
                    final_dwell, reason_up, reason_down, reason_steady,
                    phase_a, phase_b, phase_c, phase_stop, limit_dwell):
@@ -238,12 +245,13 @@ def section_pieces(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_d
         t += final_dwell
         m += 1
     times = np.empty(m + 1)
-    times[:m] = t0[:m]
+    for k in range(m):  # a loop, not a slice copy: numba's shape-check message for a slice
+        times[k] = t0[k]  # assignment costs seconds of compilation
     times[m] = t
     return times, s0[:m].copy(), v0[:m].copy(), a0[:m].copy(), jj[:m].copy(), ph[:m].copy(), lim[:m].copy(), sec_end_t
 
 
-@njit(cache=True)
+@kernel
 def _piece_time(s0, v0, a0, j, dt, target):
     """tau in [0, dt] with s0 + v0 tau + a0 tau^2/2 + j tau^3/6 = target (safeguarded Newton)."""
     lo, hi = 0.0, dt
@@ -267,7 +275,7 @@ def _piece_time(s0, v0, a0, j, dt, target):
     return tau
 
 
-@njit(cache=True)
+@kernel
 def junction_states(piece_t, piece_s, piece_v, piece_a, piece_j, piece_phase, phase_stop,
                     s_junction, is_knot, knot_time, knot_feed, knot_dwell):
     """Arrival time, feed and acceleration at every junction, in one merge-like pass over
@@ -280,8 +288,8 @@ def junction_states(piece_t, piece_s, piece_v, piece_a, piece_j, piece_phase, ph
     before the one ahead of it ends. Such times are clamped to the knot's, with its state."""
     n1 = s_junction.shape[0]
     t_arr = np.empty(n1)
-    v_j = np.zeros(n1)
-    a_j = np.zeros(n1)
+    v_j = np.empty(n1)
+    a_j = np.empty(n1)
     m = piece_s.shape[0]
     k = 0
     ki = 0
@@ -289,6 +297,7 @@ def junction_states(piece_t, piece_s, piece_v, piece_a, piece_j, piece_phase, ph
         if is_knot[i]:
             t_arr[i] = knot_time[ki]
             v_j[i] = knot_feed[ki]
+            a_j[i] = 0.0
             ki += 1
             continue
         target = s_junction[i]
@@ -313,7 +322,7 @@ def junction_states(piece_t, piece_s, piece_v, piece_a, piece_j, piece_phase, ph
     return t_arr, v_j, a_j
 
 
-@njit(cache=True)
+@kernel
 def approach_stop_distance_scalar(v_start, v_peak, jerk, accel):
     """Longest stopping distance met on a ramp from v_start up to v_peak: from the start of
     its last -J piece (acceleration a_p, duration a_p/J, covering V a_p/J - a_p^3/6J^2) the
@@ -321,10 +330,10 @@ def approach_stop_distance_scalar(v_start, v_peak, jerk, accel):
     dv = max(v_peak - v_start, 0.0)
     a_p = min(accel, math.sqrt(jerk * dv))
     t1 = a_p / jerk
-    return v_peak * t1 - a_p ** 3 / (6.0 * jerk * jerk) + ramp_distance_scalar(v_peak, 0.0, jerk, accel)
+    return v_peak * t1 - a_p * a_p * a_p / (6.0 * jerk * jerk) + ramp_distance_scalar(v_peak, 0.0, jerk, accel)
 
 
-@njit(cache=True)
+@kernel
 def approach_feed_scalar(v_start, room, jerk, accel):
     """Highest V >= v_start whose approach ramp can always stop within ``room`` (bisection)."""
     if approach_stop_distance_scalar(v_start, v_start, jerk, accel) > room:
@@ -342,7 +351,7 @@ def approach_feed_scalar(v_start, room, jerk, accel):
     return lo
 
 
-@njit(cache=True)
+@kernel
 def creep_caps(p, keep, s_junction, start, end, v_start, room, jerk, accel, cap, tol):
     """Look-ahead creep (see ``ncsim.plan.lookahead._pin_unstoppable``): for each section, successive
     approach ramps towards its set point, each ending at a junction made a knot; within
@@ -377,7 +386,7 @@ def creep_caps(p, keep, s_junction, start, end, v_start, room, jerk, accel, cap,
     return p
 
 
-@njit(cache=True)
+@kernel
 def reach_array(v0, distance, jerk, accel):
     """``ramp_reach_scalar`` over arrays (v0 may be a 0-length broadcast: pass full arrays)."""
     out = np.empty(distance.shape[0])
@@ -386,14 +395,15 @@ def reach_array(v0, distance, jerk, accel):
     return out
 
 
-@njit(cache=True)
+@kernel
 def removable_knots(peaks, caps, knot_caps, keep):
     """Which inner knots to remove (ncsim.plan.lookahead._refine_knots): walking along the path, a knot
     goes when the group of sections it joins keeps its highest peak below its lowest set
     point (section set points and the removed knots' caps), so merging never slows a section.
     ``knot_caps``/``keep`` are indexed by knot (0 and the last are never removed)."""
     n_sec = peaks.shape[0]
-    remove = np.zeros(n_sec + 1, dtype=np.bool_)
+    remove = np.empty(n_sec + 1, dtype=np.bool_)  # not np.zeros: quicker to compile
+    remove[0] = remove[n_sec] = False
     group_cap = caps[0]
     group_peak = peaks[0]
     for i in range(1, n_sec):
@@ -403,5 +413,6 @@ def removable_knots(peaks, caps, knot_caps, keep):
             remove[i] = True
             group_cap, group_peak = new_cap, new_peak
         else:
+            remove[i] = False
             group_cap, group_peak = caps[i], peaks[i]
     return remove

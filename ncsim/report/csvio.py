@@ -14,8 +14,8 @@ value becomes the integer ``round(x * 10^d)`` (numpy), and a compiled loop
 (``csvformat.format_csv_rows``) writes the rows' bytes: sign, digits two at a time from a
 100-entry table, point, labels. A pure-numpy formatter (:func:`format_rows`) does the same
 with vectorised scatters; it is used for the rare chunks with values outside the integer path
-(inf, nan, |x| 10^d >= 1e18, formatted by Python one by one) and tests hold the two to
-byte-identical output. About 2.5 million rows per second for the default columns on a 2-core
+(inf, nan, |x| 10^d >= 1e18, formatted by Python one by one), and for small chunks as long
+as numba is not loaded (``ncsim.jit``), and tests hold the two to byte-identical output. About 2.5 million rows per second for the default columns on a 2-core
 machine, against ~0.15 million for ``np.savetxt`` (``benchmarks/bench_trace_io.py``).
 
 Reading takes the file in the dialect of :mod:`ncsim.config` (the one ``ncsim gap`` reads
@@ -228,9 +228,11 @@ def format_rows(columns: list[np.ndarray], kinds: list[str], decimals: list[int]
     m = len(columns[0]) if columns else 0
     if m == 0:
         return b""
-    fast = _format_rows_compiled(columns, kinds, decimals, labels, names)
-    if fast is not None:
-        return fast
+    from ncsim.report.csvformat import format_csv_rows
+    if format_csv_rows.runs_compiled(m):  # small chunks: numpy, without starting numba
+        fast = _format_rows_compiled(columns, kinds, decimals, labels, names)
+        if fast is not None:
+            return fast
     fields = [_label_slots(v, lab, nm) if kind == LABEL else _numeric_slots(v, d, kind == INT)
               for v, kind, d, lab, nm in zip(columns, kinds, decimals, labels, names)]
     row_len = sum(f.length for f in fields) + len(fields)
