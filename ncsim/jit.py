@@ -2,8 +2,9 @@
 
 A *kernel* is a function over numpy arrays and scalars written in the subset of Python that
 numba compiles (the scanner of ``nc.fastparse``, the look-ahead loops of ``plan._kernels``, the
-CSV row writer of ``report.csvformat``). :func:`kernel` wraps it in a :class:`Kernel` that runs
-either the function itself, as plain Python, or numba's compiled version of it:
+CSV row writer of ``report.csvformat``). :func:`njit` (a stand-in for ``numba.njit``) wraps it
+in a :class:`Kernel` that runs either the function itself, as plain Python, or numba's
+compiled version of it:
 
 * numba's fixed cost is large against a short program: importing it takes about 0.25 s, and
   loading its first cached kernel another 0.35-0.5 s (its lowering registries, which import
@@ -180,12 +181,16 @@ class Kernel:
         return self.pick(_size(args))(*args)
 
 
-def kernel(func=None, *, python_below: int = PYTHON_BELOW, python: Callable | None = None,
-           **numba_options):
-    """Decorator: make ``func`` a :class:`Kernel` (``numba_options`` go to ``numba.njit``,
-    always with ``cache=True``). ``python`` replaces the plain version where plain Python
-    computes differently from numba (``np.cbrt`` of a float: numba calls libm's ``cbrt``,
-    as ``math.cbrt`` does, numpy its own)."""
+def njit(func=None, *, cache: bool = True, python_below: int = PYTHON_BELOW,
+         python: Callable | None = None, **numba_options):
+    """Decorator with ``numba.njit``'s signature: make ``func`` a :class:`Kernel` (numba's
+    options go to ``numba.njit`` when it compiles; ``cache`` must stay True). ``python``
+    replaces the plain version where plain Python computes differently from numba
+    (``np.cbrt`` of a float: numba calls libm's ``cbrt``, as ``math.cbrt`` does, numpy its
+    own)."""
+    if not cache:
+        raise ValueError("ncsim's kernels are always cached (numba's cache=True)")
+
     def wrap(f):
         k = Kernel(f, numba_options, python_below, python)
         _registry.append(k)

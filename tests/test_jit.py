@@ -192,13 +192,13 @@ def test_the_first_compilation_is_announced_once_on_stderr(tmp_path):
     """A kernel numba has not cached yet: the CLI says so on stderr (not a terminal here),
     once, before compiling; the second process loads it from the cache and says nothing."""
     (tmp_path / "toykernels.py").write_text(textwrap.dedent("""
-        from ncsim.jit import kernel
+        from ncsim.jit import njit
 
-        @kernel
+        @njit(cache=True)
         def twice(x):
             return x * 2.0
 
-        @kernel
+        @njit(cache=True)
         def total(a):
             s = 0.0
             for v in a:

@@ -20,7 +20,7 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from ncsim.jit import kernel
+from ncsim.jit import njit
 
 from ncsim.nc import program as P
 
@@ -34,19 +34,19 @@ _NL, _SP, _TAB, _SEMI, _DOT, _PLUS, _MINUS = 10, 32, 9, 59, 46, 43, 45
 _N, _G = 78, 71
 
 
-@kernel(nogil=True)
+@njit(cache=True, nogil=True)
 def _is_digit(c):
     return 48 <= c <= 57
 
 
-@kernel(nogil=True)
+@njit(cache=True, nogil=True)
 def _skip_ws(buf, pos, end):
     while pos < end and (buf[pos] == _SP or buf[pos] == _TAB):
         pos += 1
     return pos
 
 
-@kernel(nogil=True)
+@njit(cache=True, nogil=True)
 def _read_number(buf, pos, end, pow10):
     """Read ``[+-](digits[.digits]|.digits)`` at pos. Returns (ok, value, new_pos)."""
     neg = False
@@ -84,7 +84,7 @@ def _read_number(buf, pos, end, pow10):
     return True, value, pos
 
 
-@kernel(nogil=True)
+@njit(cache=True, nogil=True)
 def _scan_line(buf, a, b, letters, pow10, numbers, g, values, cols, row):
     """Scan buf[a:b] as a plain line into row ``row`` of the columns; False if not plain."""
     pos = _skip_ws(buf, a, b)
@@ -122,7 +122,7 @@ def _scan_line(buf, a, b, letters, pow10, numbers, g, values, cols, row):
     return pos == b
 
 
-@kernel(nogil=True)
+@njit(cache=True, nogil=True)
 def _clear_row(numbers, g, values, cols, row):
     numbers[row] = -1
     g[row] = -1
@@ -132,7 +132,7 @@ def _clear_row(numbers, g, values, cols, row):
         cols[row, k] = 0
 
 
-@kernel(nogil=True, python_below=200_000)  # bytes: about 8,000 CAM lines
+@njit(cache=True, nogil=True, python_below=200_000)  # bytes: about 8,000 CAM lines
 def _scan(buf, letters, pow10):
     size = len(buf)
     n_lines = 0

@@ -12,16 +12,16 @@ import math
 
 import numpy as np
 
-from ncsim.jit import kernel
+from ncsim.jit import njit
 
 
-@kernel(python=math.cbrt)
+@njit(cache=True, python=math.cbrt)
 def cbrt(x):
     """The real cube root (libm's ``cbrt`` both ways)."""
     return np.cbrt(x)
 
 
-@kernel
+@njit(cache=True)
 def ramp_reach_scalar(v0, distance, jerk, accel):
     """Scalar twin of :func:`ncsim.plan.ramps.ramp_reach_mm_s` (same closed forms)."""
     if not math.isfinite(distance) or not math.isfinite(v0):
@@ -29,7 +29,7 @@ def ramp_reach_scalar(v0, distance, jerk, accel):
     return v0 + reach_gain_scalar(v0, distance, jerk, accel)
 
 
-@kernel
+@njit(cache=True)
 def reach_gain_scalar(v0, distance, jerk, accel):
     """The feed gain ``v1 - v0`` of :func:`ramp_reach_scalar`, without forming ``v1``
     (no rounding when the gain is tiny against v0)."""
@@ -52,7 +52,7 @@ def reach_gain_scalar(v0, distance, jerk, accel):
     return max(x, 0.0)
 
 
-@kernel
+@njit(cache=True)
 def knot_feeds(caps, section_length, section_jerk, section_accel):
     """Backward then forward pass over knots: each knot's feed is at most its cap, at most
     what one ramp brings down to the next knot's feed, at most what one ramp brings up
@@ -77,7 +77,7 @@ def knot_feeds_array(caps, section_length, section_jerk, section_accel) -> np.nd
                       np.ascontiguousarray(section_accel, dtype=np.float64))
 
 
-@kernel
+@njit(cache=True)
 def ramp_time_scalar(dv, jerk, accel):
     """Scalar twin of :func:`ncsim.plan.ramps.ramp_time_s`."""
     dv = abs(dv)
@@ -86,19 +86,19 @@ def ramp_time_scalar(dv, jerk, accel):
     return dv / accel + accel / jerk
 
 
-@kernel
+@njit(cache=True)
 def ramp_distance_scalar(v0, v1, jerk, accel):
     """Scalar twin of :func:`ncsim.plan.ramps.ramp_distance_mm`."""
     return 0.5 * (v0 + v1) * ramp_time_scalar(v1 - v0, jerk, accel)
 
 
-@kernel
+@njit(cache=True)
 def _rise_distance(v_low, dv, jerk, accel):
     """Distance of a ramp between v_low and v_low + dv, from dv itself (no cancellation)."""
     return 0.5 * (2.0 * v_low + dv) * ramp_time_scalar(dv, jerk, accel)
 
 
-@kernel
+@njit(cache=True)
 def _rise_distance_slope(v_low, dv, jerk, accel):
     """d/d(dv) of :func:`_rise_distance`."""
     if dv <= 0.0:
@@ -110,13 +110,13 @@ def _rise_distance_slope(v_low, dv, jerk, accel):
     return 0.5 * t + 0.5 * (2.0 * v_low + dv) * dt
 
 
-@kernel
+@njit(cache=True)
 def _peak_excess(va, vb, ga, gb, u2, length, jerk, accel):
     return (_rise_distance(va, ga + u2, jerk, accel) + _rise_distance(vb, gb + u2, jerk, accel)
             - length)
 
 
-@kernel
+@njit(cache=True)
 def peak_feed_scalar(va, vb, length, jerk, accel, cap):
     """Scalar twin of :func:`ncsim.plan.ramps.peak_feed_mm_s` (generalised eq. 16).
 
@@ -160,7 +160,7 @@ def peak_feed_scalar(va, vb, length, jerk, accel, cap):
     return lo + u * u
 
 
-@kernel
+@njit(cache=True)
 def peak_feeds(va, vb, length, jerk, accel, cap):
     out = np.empty(va.shape[0])
     for i in range(va.shape[0]):
@@ -168,7 +168,7 @@ def peak_feeds(va, vb, length, jerk, accel, cap):
     return out
 
 
-@kernel
+@njit(cache=True)
 def _ramp_segments(v0, v1, jerk, accel):
     """Durations t1, t2 and signed jerk of a ramp (see ncsim.plan.ramps.ramp_pieces)."""
     dv = abs(v1 - v0)
@@ -179,7 +179,7 @@ def _ramp_segments(v0, v1, jerk, accel):
     return t1, t2, sign * jerk
 
 
-@kernel
+@njit(cache=True)
 def _emit_ramp(v_from, v_to, J, A, s, t, m, phase, limit, t0, s0, v0, a0, jj, ph, lim):
     """Append the (up to three) constant-jerk pieces of one ramp starting at path length s
     and time t; returns the new time and piece count."""
@@ -197,7 +197,7 @@ def _emit_ramp(v_from, v_to, J, A, s, t, m, phase, limit, t0, s0, v0, a0, jj, ph
     return t, m
 
 
-@kernel
+@njit(cache=True)
 def section_pieces(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_dwell,
                    final_dwell, reason_up, reason_down, reason_steady,
                    phase_a, phase_b, phase_c, phase_stop, limit_dwell):
@@ -245,13 +245,12 @@ def section_pieces(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_d
         t += final_dwell
         m += 1
     times = np.empty(m + 1)
-    for k in range(m):  # a loop, not a slice copy: numba's shape-check message for a slice
-        times[k] = t0[k]  # assignment costs seconds of compilation
+    times[:m] = t0[:m]
     times[m] = t
     return times, s0[:m].copy(), v0[:m].copy(), a0[:m].copy(), jj[:m].copy(), ph[:m].copy(), lim[:m].copy(), sec_end_t
 
 
-@kernel
+@njit(cache=True)
 def _piece_time(s0, v0, a0, j, dt, target):
     """tau in [0, dt] with s0 + v0 tau + a0 tau^2/2 + j tau^3/6 = target (safeguarded Newton)."""
     lo, hi = 0.0, dt
@@ -275,7 +274,7 @@ def _piece_time(s0, v0, a0, j, dt, target):
     return tau
 
 
-@kernel
+@njit(cache=True)
 def junction_states(piece_t, piece_s, piece_v, piece_a, piece_j, piece_phase, phase_stop,
                     s_junction, is_knot, knot_time, knot_feed, knot_dwell):
     """Arrival time, feed and acceleration at every junction, in one merge-like pass over
@@ -322,7 +321,7 @@ def junction_states(piece_t, piece_s, piece_v, piece_a, piece_j, piece_phase, ph
     return t_arr, v_j, a_j
 
 
-@kernel
+@njit(cache=True)
 def approach_stop_distance_scalar(v_start, v_peak, jerk, accel):
     """Longest stopping distance met on a ramp from v_start up to v_peak: from the start of
     its last -J piece (acceleration a_p, duration a_p/J, covering V a_p/J - a_p^3/6J^2) the
@@ -333,7 +332,7 @@ def approach_stop_distance_scalar(v_start, v_peak, jerk, accel):
     return v_peak * t1 - a_p * a_p * a_p / (6.0 * jerk * jerk) + ramp_distance_scalar(v_peak, 0.0, jerk, accel)
 
 
-@kernel
+@njit(cache=True)
 def approach_feed_scalar(v_start, room, jerk, accel):
     """Highest V >= v_start whose approach ramp can always stop within ``room`` (bisection)."""
     if approach_stop_distance_scalar(v_start, v_start, jerk, accel) > room:
@@ -351,7 +350,7 @@ def approach_feed_scalar(v_start, room, jerk, accel):
     return lo
 
 
-@kernel
+@njit(cache=True)
 def creep_caps(p, keep, s_junction, start, end, v_start, room, jerk, accel, cap, tol):
     """Look-ahead creep (see ``ncsim.plan.lookahead._pin_unstoppable``): for each section, successive
     approach ramps towards its set point, each ending at a junction made a knot; within
@@ -386,7 +385,7 @@ def creep_caps(p, keep, s_junction, start, end, v_start, room, jerk, accel, cap,
     return p
 
 
-@kernel
+@njit(cache=True)
 def reach_array(v0, distance, jerk, accel):
     """``ramp_reach_scalar`` over arrays (v0 may be a 0-length broadcast: pass full arrays)."""
     out = np.empty(distance.shape[0])
@@ -395,15 +394,14 @@ def reach_array(v0, distance, jerk, accel):
     return out
 
 
-@kernel
+@njit(cache=True)
 def removable_knots(peaks, caps, knot_caps, keep):
     """Which inner knots to remove (ncsim.plan.lookahead._refine_knots): walking along the path, a knot
     goes when the group of sections it joins keeps its highest peak below its lowest set
     point (section set points and the removed knots' caps), so merging never slows a section.
     ``knot_caps``/``keep`` are indexed by knot (0 and the last are never removed)."""
     n_sec = peaks.shape[0]
-    remove = np.empty(n_sec + 1, dtype=np.bool_)  # not np.zeros: quicker to compile
-    remove[0] = remove[n_sec] = False
+    remove = np.zeros(n_sec + 1, dtype=np.bool_)
     group_cap = caps[0]
     group_peak = peaks[0]
     for i in range(1, n_sec):
@@ -413,6 +411,5 @@ def removable_knots(peaks, caps, knot_caps, keep):
             remove[i] = True
             group_cap, group_peak = new_cap, new_peak
         else:
-            remove[i] = False
             group_cap, group_peak = caps[i], peaks[i]
     return remove

@@ -8,13 +8,13 @@ holds it byte-identical to the pure-numpy formatter ``csvio.format_rows``.
 from __future__ import annotations
 
 import numpy as np
-from ncsim.jit import kernel
+from ncsim.jit import njit
 
 _DIGIT_PAIRS = np.frombuffer("".join(f"{i:02d}" for i in range(100)).encode("ascii"),
                              dtype=np.uint8).copy()
 
 
-@kernel
+@njit(cache=True)
 def format_csv_rows(ints, neg, kind, decimals, labels, label_len, out):
     """Write CSV rows into ``out`` (uint8) and return the byte count (see ``csvio``).
 
