@@ -9,9 +9,9 @@ compiled version of it:
 * numba's fixed cost is large against a short program: importing it takes about 0.25 s, and
   loading its first cached kernel another 0.35-0.5 s (its lowering registries, which import
   scipy.linalg), while the whole run of a 10-line program takes a few milliseconds of kernel
-  work. A call whose input is smaller than the kernel's ``python_below`` (the first dimension
-  of its largest array argument, or the length of a ``bytes``) therefore runs as plain Python
-  and numba is never imported;
+  work. A call whose input is smaller than the kernel's ``python_below`` (the length of its
+  first array or ``bytes`` argument) therefore runs as plain Python and numba is never
+  imported;
 * a larger call runs compiled (``cache=True``: the first time after installing, numba compiles
   and caches the kernels, announced once through :func:`on_compile`), and so does every call
   once a compiled kernel has run in the process, since numba's start-up is paid by then.
@@ -87,14 +87,15 @@ def numba_active() -> bool:
 
 
 def _size(args) -> int:
-    n = 0
+    """The length of the first array (or bytes) argument: the rows a kernel works through
+    (output buffers come later)."""
     for a in args:
         shape = getattr(a, "shape", None)
         if shape:
-            n = max(n, shape[0])
-        elif isinstance(a, (bytes, bytearray, memoryview, str)):
-            n = max(n, len(a))
-    return n
+            return shape[0]
+        if isinstance(a, (bytes, bytearray, memoryview, str)):
+            return len(a)
+    return 0
 
 
 class Kernel:

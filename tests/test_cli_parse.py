@@ -5,6 +5,8 @@ import json
 
 import pytest
 from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from ncsim.cli.main import cli
 
@@ -95,3 +97,64 @@ def test_endless_loop_exits_2_at_its_line(tmp_path, monkeypatch):
     assert r.exit_code == 2
     # blocks: line 1, then lines 2, 3, 2, 3, ...: block 51 is line 3
     assert r.stderr.strip() == f"{p}:3:1: block budget of 50 blocks exceeded (endless loop?)"
+
+
+# ---------------------------------------------------------------------------------------------
+# The row writer (report.pathtext) against Python's own formatting of each segment
+# ---------------------------------------------------------------------------------------------
+
+def _python_lines(path) -> list[str]:
+    """Python's f-string lines; the writer never writes a minus sign on a value that rounds
+    to zero (Python writes -0.0000 for -1e-9)."""
+    from ncsim.report.pathtext import segment_text
+    return [segment_text(path, i).replace("-0.0000", "0.0000") for i in range(path.n)]
+
+
+def test_the_row_writer_writes_what_python_formats(repo_root):
+    from ncsim.nc.interpret import interpret_file
+    from ncsim.report.pathtext import format_segments
+    for program in sorted((repo_root / "programs").glob("*.mpf")):
+        path = interpret_file(str(program)).path
+        assert format_segments(path).decode().splitlines() == _python_lines(path), program
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(0, 2**31 - 1), st.integers(1, 60), st.sampled_from(["G64", "G641 ADIS=0.25",
+                                                                       "G60", "G64 G9"]))
+def test_the_row_writer_writes_what_python_formats_on_random_programs(seed, n_blocks, mode):
+    import numpy as np
+
+    from ncsim.nc.interpret import interpret_text
+    from ncsim.report.pathtext import format_segments
+    from test_plan_reference import random_program
+    text = random_program(np.random.default_rng(seed), n_blocks).replace("G64", mode, 1)
+    text = text.replace("G0 X0 Y0 Z0", "G0 X0 Y0 Z0\nG1 Z1 F777.5\nG2 X0 Y0 Z0 I1 J0", 1)
+    path = interpret_text(text, "random.mpf").path
+    assert format_segments(path).decode().splitlines() == _python_lines(path)
+
+
+def test_values_beyond_the_integer_path_are_written_by_python(program):
+    import numpy as np
+
+    from ncsim.nc.interpret import interpret_file
+    from ncsim.report.pathtext import format_segments, segment_text
+    path = interpret_file(str(program)).path
+    far = path.replace_columns(end_mm=np.where(np.arange(path.n)[:, None] == 1, 1e16, path.end_mm))
+    lines = format_segments(far).decode().splitlines()
+    assert lines == [segment_text(far, i) for i in range(far.n)]
+    assert "10000000000000000.0000" in lines[1]
+
+
+def test_chunks_and_limit(program, monkeypatch):
+    import io
+
+    from ncsim.nc.interpret import interpret_file
+    from ncsim.report import pathtext
+    path = interpret_file(str(program)).path
+    whole = pathtext.format_segments(path)
+    monkeypatch.setattr(pathtext, "CHUNK_ROWS", 3)
+    out = io.BytesIO()
+    assert pathtext.write_segments(path, out) == path.n and out.getvalue() == whole
+    out = io.BytesIO()
+    assert pathtext.write_segments(path, out, limit=2) == 2
+    assert out.getvalue().decode().splitlines() == whole.decode().splitlines()[:2]

@@ -3,8 +3,8 @@ either way, numba never imported by a small run, and its first compilation annou
 
 The property tests are the guarantee behind the size switch: on random programs (lines, arcs,
 dwells, exact stops, SOFT/BRISK changes, look-ahead depths from 1 to 100) the plain-Python
-kernels and numba's compiled ones give bit-identical paths, feed laws, traces and CSV bytes,
-and the scanner reads random near-plain lines identically.
+kernels and numba's compiled ones give bit-identical paths, feed laws, traces, CSV bytes and
+``ncsim parse`` lines, and the scanner reads random near-plain lines identically.
 """
 from __future__ import annotations
 
@@ -29,6 +29,7 @@ from ncsim.pipeline import simulate, warmup, warmup_program
 from ncsim.plan import _kernels as K
 from ncsim.plan.sample import sample_motion
 from ncsim.report.csvio import write_trace_csv
+from ncsim.report.pathtext import format_segments
 from test_fastpath import near_plain_lines
 from test_plan_reference import random_program
 
@@ -49,6 +50,7 @@ def _run(which: str, text: str, machine, options):
         trace = sample_motion(sim.motion)
         out = io.BytesIO()
         write_trace_csv(trace, out, columns="all")
+        out.write(format_segments(sim.path))
     return sim, trace, out.getvalue()
 
 

@@ -14,7 +14,6 @@ that ``ncsim --help`` is quick and ``ncsim run`` never imports matplotlib.
 from __future__ import annotations
 
 import json
-import math
 import os
 import sys
 import threading
@@ -123,8 +122,10 @@ def parse_cmd(program, machine_name, setup_file, as_json, limit) -> None:
             "summary": _summary_dict(result),
             "warnings": [w.render() for w in result.warnings]}, indent=1))
         return
-    for i in range(shown):
-        click.echo(_segment_text(path.segment(i)))
+    from ncsim.report.pathtext import write_segments
+    sys.stdout.flush()
+    write_segments(path, sys.stdout.buffer, shown)
+    sys.stdout.buffer.flush()
     if shown < path.n:
         click.echo(f"... {path.n - shown} more segments")
     s = _summary_dict(result)
@@ -133,45 +134,9 @@ def parse_cmd(program, machine_name, setup_file, as_json, limit) -> None:
                f"{s['blocks_executed']}  warnings: {s['warnings']}")
 
 
-def _xyz(v) -> str:
-    return "(" + ", ".join(f"{float(c):.4f}" for c in v) + ")"
-
-
 def _feed_mm_min(seg) -> float | None:
     from ncsim.units import mm_s_to_mm_min
     return None if seg.rapid else mm_s_to_mm_min(seg.feed_mm_s)
-
-
-def _flags(seg) -> list[str]:
-    from ncsim.path import ACCEL_MODE_NAMES
-    flags = ["G0" if seg.rapid else "feed", f"G{seg.cp_mode}", f"G{seg.stop_window}",
-             ACCEL_MODE_NAMES[seg.accel_mode]]
-    if seg.exact_stop:
-        flags.append("exact_stop")
-    if seg.cp_mode == 641 or seg.adis_mm:
-        flags.append(f"adis={seg.adis_mm:g}")
-    if seg.ffw:
-        flags.append("FFWON")
-    if seg.stop_before:
-        flags.append("stop_before")
-    if seg.dwell_before_s:
-        flags.append(f"dwell_before={seg.dwell_before_s:g}s")
-    return flags
-
-
-def _segment_text(seg) -> str:
-    """One output line per segment: index, source line, kind, geometry, length, feed, flags."""
-    feed = _feed_mm_min(seg)
-    kind = "arc" if seg.is_arc else "line"
-    text = (f"{seg.index:>7} {seg.file}:{seg.line:<6} {kind:<4} {_xyz(seg.start_mm)} -> "
-            f"{_xyz(seg.end_mm)}")
-    if seg.is_arc:
-        text += (f" centre={_xyz(seg.center_mm)} radius_mm={seg.radius_mm:.4f} "
-                 f"sweep_deg={math.degrees(seg.sweep_rad):.3f} normal={_xyz(seg.normal)}")
-        if seg.helix_mm:
-            text += f" helix_mm={seg.helix_mm:.4f}"
-    text += f" length_mm={seg.length_mm:.4f} feed_mm_min={'rapid' if feed is None else f'{feed:g}'}"
-    return text + " " + " ".join(_flags(seg))
 
 
 def _segment_dict(seg) -> dict:
