@@ -54,9 +54,11 @@ def main() -> None:
     args = ap.parse_args()
 
     t0 = time.perf_counter()
+    from ncsim import jit
     from ncsim.nc.interpret import interpret_text
     from ncsim.nc.parse import parse_text
-    interpret_text(plain_program(100, args.arc_every), "warmup.mpf")
+    with jit.forced("compiled"):  # a small program alone would run the plain-Python scanner
+        interpret_text(plain_program(100, args.arc_every), "warmup.mpf")
     print(f"import + grammar + scanner warm-up: {time.perf_counter() - t0:.2f} s")
 
     for n in args.blocks:

@@ -38,8 +38,8 @@ MODES = ("auto", "python", "compiled")
 #: long as numba's start-up (``benchmarks/bench_startup.py`` measures the crossover)
 PYTHON_BELOW = 8_000
 #: what :func:`on_compile`'s callback is told when numba starts compiling ncsim's kernels
-COMPILE_NOTICE = ("ncsim: compiling kernels, once, about 20 s (numba caches them for later "
-                  "runs; `ncsim warmup` does it ahead)")
+COMPILE_NOTICE = ("ncsim: compiling kernels, once, about 10-20 s (cached for later runs; "
+                  "`ncsim warmup` compiles them ahead)")
 
 _forced: str | None = None
 _active = False                          # a compiled kernel has run in this process
