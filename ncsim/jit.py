@@ -34,9 +34,10 @@ from typing import Callable
 from ncsim.errors import UsageError
 
 MODES = ("auto", "python", "compiled")
-#: default ``python_below``: a plain-Python kernel call over this many items takes about as
-#: long as numba's start-up (``benchmarks/bench_startup.py`` measures the crossover)
-PYTHON_BELOW = 8_000
+#: default ``python_below``. On CAM programs (``benchmarks/bench_startup.py``) a whole run in
+#: plain Python stays cheaper than numba's start-up up to about 20,000 blocks (0.5 s of CPU
+#: at 10,000 against 1.0 s compiled); half of that leaves room for costlier blocks
+PYTHON_BELOW = 10_000
 #: what :func:`on_compile`'s callback is told when numba starts compiling ncsim's kernels
 COMPILE_NOTICE = ("ncsim: compiling kernels, once, about 10-20 s (cached for later runs; "
                   "`ncsim warmup` compiles them ahead)")

@@ -11,7 +11,7 @@ the Lark grammar, which remains the definition of the language: every plain line
 exactly what Lark makes of it (``tests/test_fastpath.py`` proves it by property tests).
 
 The scanner is one pass over the UTF-8 bytes, compiled with numba (``ncsim.jit``: programs
-under about 8,000 lines are scanned as plain Python, over ``bytes``). A number is read as an
+under about 10,000 lines are scanned as plain Python, over ``bytes``). A number is read as an
 integer mantissa ``m < 10**15`` and ``d <= 22`` decimals and converted as ``m / 10**d``: both
 are exact doubles, so the one correctly rounded division gives exactly ``float(text)``.
 """
@@ -132,7 +132,7 @@ def _clear_row(numbers, g, values, cols, row):
         cols[row, k] = 0
 
 
-@njit(cache=True, nogil=True, python_below=200_000)  # bytes: about 8,000 CAM lines
+@njit(cache=True, nogil=True, python_below=250_000)  # bytes: about 10,000 CAM lines
 def _scan(buf, letters, pow10):
     size = len(buf)
     n_lines = 0

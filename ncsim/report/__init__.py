@@ -2,5 +2,5 @@
 
 ``summary`` (the JSON and text summary), ``check`` (CI thresholds), ``explain`` (a machine's
 limits against the radius), ``plot`` (matplotlib, imported lazily), ``csvio`` and its compiled
-row writer ``csvformat``.
+row writer ``csvformat``, ``pathtext`` (the lines of ``ncsim parse``, compiled).
 """

@@ -14,10 +14,10 @@ of the scaled double) and its sign; one that rounds to zero has no minus sign.
 
 As for the CSV trace (``csvformat``), numpy scales a chunk of rows to integers and a compiled
 loop writes the bytes, about 40 times the speed of one f-string per segment
-(``benchmarks/bench_profile.py`` measures ``ncsim parse``). A path under ``PYTHON_BELOW`` rows
-goes through the same loop as plain Python (``ncsim.jit``), so a small ``ncsim parse`` never
-starts numba. A chunk holding a value too large for 64-bit integers once scaled (beyond
-±9e13 mm) is written by Python's own formatting, row by row.
+(``benchmarks/bench_profile.py`` measures ``ncsim parse``). A path under ``jit.PYTHON_BELOW``
+rows goes through the same loop as plain Python (``ncsim.jit``; about 25,000 rows/s), so a
+small ``ncsim parse`` never starts numba. A chunk holding a value too large for 64-bit
+integers once scaled (beyond ±9e13 mm) is written by Python's own formatting, row by row.
 """
 from __future__ import annotations
 
@@ -30,7 +30,6 @@ from ncsim.path import ACCEL_MODE_NAMES, Path
 from ncsim.units import mm_s_to_mm_min
 
 CHUNK_ROWS = 1 << 14
-PYTHON_BELOW = 2_000           # plain Python writes about 40,000 rows per second
 
 # columns of the scaled-integer table, with their decimals and whether trailing zeros go
 _START, _END, _CENTRE, _RADIUS, _SWEEP, _NORMAL, _HELIX, _LENGTH, _FEED, _ADIS, _DWELL = (
@@ -114,7 +113,7 @@ def _put_triple(out, pos, q, neg, r, c):
     return _put_literal(out, pos, _CLOSE)
 
 
-@njit(cache=True, python_below=PYTHON_BELOW)
+@njit(cache=True)
 def format_segment_rows(first, file_index, names, name_len, line, q, neg, flags, out):
     """Write the rows' lines into ``out`` (uint8) and return the byte count: row r is segment
     ``first + r``; ``q``/``neg`` the scaled integers and signs of the numeric columns,
