@@ -665,7 +665,7 @@ def _explain_text(machine, ext, rows, feed_unit: str = "mm/min") -> str:
 @cli.command("warmup")
 def warmup_cmd() -> None:
     """Compile ncsim's numba kernels now (once after installing, 10-20 s), so that no later
-    run pauses to compile. Programs under a few thousand blocks never need them."""
+    run pauses to compile. Programs under about 10,000 blocks never need them."""
     from ncsim.pipeline import warmup
     click.echo(f"kernels ready ({warmup():.1f} s); later runs load them from numba's cache")
 
