@@ -1,6 +1,9 @@
 """Machine description: a TOML file loaded into a frozen, validated :class:`MachineSpec`.
 
 TOML keys carry their units (``max_accel_m_s2``, ``ipo_cycle_ms``); the spec holds mm and s.
+Keys for 840D machine and setting data are named after them (``max_accel_ovl_factor`` is
+MD32310 ``$MA_MAX_ACCEL_OVL_FACTOR``); a key whose 840D default could not be confirmed in the
+manuals has a documented default that a user should check against their machine.
 Every problem in a file (missing, unknown, mistyped or out-of-range key) is collected and
 reported in one :class:`~ncsim.errors.MachineSpecError` naming the file and the key.
 See ``machines/mikron.toml`` for the reference file and README "Machine file" for the schema.
@@ -16,8 +19,10 @@ import numpy as np
 
 from ncsim.config import Problems, between, is_number, open_share, read_toml, share, share0
 from ncsim.errors import ConfigWarning, MachineSpecError
-from ncsim.units import (m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_s2_to_m_s2, mm_s3_to_m_s3,
-                         mm_s_to_m_min, ms_to_s, s2_to_um_per_m_s2, s_to_ms, um_per_m_s2_to_s2)
+from ncsim.path import BRISK, COMPCAD, COMPOF, COMPRESSOR_NAMES, DRIVE, SOFT
+from ncsim.units import (deg_to_rad, m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_s2_to_m_s2,
+                         mm_s3_to_m_s3, mm_s_to_m_min, ms_to_s, rad_to_deg, s2_to_um_per_m_s2,
+                         s_to_ms, um_per_m_s2_to_s2)
 
 AXIS_NAMES = ("X", "Y", "Z")
 WORK_OFFSET_NAMES = ("G54", "G55", "G56", "G57")
@@ -30,6 +35,16 @@ class AxisSpec:
     max_accel_mm_s2: float     # MD32300 $MA_MAX_AX_ACCEL
     max_jerk_mm_s3: float      # MD32431 $MA_MAX_AX_JERK
     position_gain_1_s: float | None = None  # MD32200 $MA_POSCTRL_GAIN (Kv), as 1/s
+    # MD32310 $MA_MAX_ACCEL_OVL_FACTOR: at a G64 corner the axis velocity may jump by
+    # A (factor - 1) t_IPO (840D B1 "Continuous-path mode", overload factor); 1.2 is the value
+    # usually delivered (not confirmed in the manuals found)
+    max_accel_ovl_factor: float = 1.2
+    # MD33100 $MA_COMPRESS_POS_TOL: axis tolerance of the compressor and of G642 rounding;
+    # 0.01 mm is the value B1 (08/2005, section 2.5) calls suitable for most applications
+    compress_pos_tol_mm: float = 0.01
+    # MD33120 $MA_PATH_TRANS_POS_TOL: G645 tolerance at tangential transitions with a curvature
+    # jump (840D B1 "G645"); default not confirmed
+    path_trans_pos_tol_mm: float = 0.005
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,18 +56,73 @@ class NcuSpec:
     transition_time_s: float           # delta t of eq. 13 (paper §5.3.2)
     lookahead_blocks: int              # dynamic look-ahead depth (blocks prepared ahead)
     normal_accel_share: float = 0.75   # share of axis acceleration the normal (centripetal) part may use
-    corner_velocity_jump_factor: float = 1.0  # axis velocity jump allowed at a G64 corner, x accel x t_cy
     exact_stop_fine_settle_s: float = 0.0     # time to enter the G601 window after the set point stops
     exact_stop_coarse_settle_s: float = 0.0   # same for G602
     drive_speed_point_ratio: float = 1.0      # DRIVE: share of max velocity above which accel is reduced
     drive_accel_reduction_ratio: float = 0.0  # DRIVE: accel reduction at max velocity
     circle_error_const_mm: float = 0.01       # MD21000 $MC_CIRCLE_ERROR_CONST
     circle_error_factor: float = 0.001        # MD21010 $MC_CIRCLE_ERROR_FACTOR
+    smooth_contur_tol_mm: float = 0.05        # SD42465 $SC_SMOOTH_CONTUR_TOL (default not confirmed)
+    smoothing_mode: int = 0                   # MD20480 $MC_SMOOTHING_MODE (tens digit simulated)
+    ignore_ovl_factor_for_adis: bool = False  # MD20490 $MC_IGNORE_OVL_FACTOR_FOR_ADIS
+    compress_block_path_limit_mm: float = 20.0  # MD20170 $MC_COMPRESS_BLOCK_PATH_LIMIT (B1's recommendation)
+    crit_spline_angle_rad: float = deg_to_rad(36.0)  # SD42470 $SC_CRIT_SPLINE_ANGLE (B1 recommends 36 deg)
+
+    @property
+    def g642_contour_tolerance(self) -> bool:
+        """MD20480 tens digit 1: G642 rounds the geometry axes within the contour tolerance
+        SD42465, else (0) within the axis tolerances MD33100 (840D B1, G642)."""
+        return (self.smoothing_mode // 10) % 10 == 1
 
     @property
     def tangential_jerk_mm_s3(self) -> float:
         """J_tcurv = J_curv * r_jct (paper eq. 10)."""
         return self.curvilinear_jerk_mm_s3 * self.tangential_jerk_share
+
+
+#: CYCLE832 machining types (SINUMERIK NC programming manual, "High speed settings - CYCLE832":
+#: S_TOLM units digit 0 deselection, 1 finishing, 2 rough-finishing, 3 roughing, 4 smooth finishing)
+CYCLE832_TYPES = ("off", "finish", "semifinish", "rough", "precision")
+#: group-10 path modes a CYCLE832 expansion may select
+PATH_MODE_CODES = {"G60": 60, "G64": 64, "G641": 641, "G642": 642, "G643": 643, "G644": 644,
+                   "G645": 645}
+COMPRESSOR_CODES = {name: code for code, name in COMPRESSOR_NAMES.items()}
+ACCEL_MODE_CODES = {"SOFT": SOFT, "BRISK": BRISK, "DRIVE": DRIVE}
+RESET = "reset"   # an expansion value meaning: back to the reset value (MD20150)
+
+
+@dataclass(frozen=True, slots=True)
+class Cycle832Expansion:
+    """What CYCLE832 switches for one machining type (its CUST_832 G codes). ``None`` means the
+    reset value of the group (MD20150 $MC_GCODE_RESET_VALUES)."""
+
+    path_mode: int | None = 642          # G642 (group 10)
+    compressor: int = COMPCAD            # COMPCAD (group 30)
+    accel_mode: int | None = SOFT        # SOFT (group 21)
+    feed_forward: bool | None = True     # FFWON (group 24)
+
+
+_SELECT = Cycle832Expansion()
+_DESELECT = Cycle832Expansion(path_mode=None, compressor=COMPOF, accel_mode=None, feed_forward=None)
+
+
+@dataclass(frozen=True, slots=True)
+class Cycle832Spec:
+    """The ``[cycle832]`` table: the expansion per machining type. The defaults are the usual
+    CUST_832 settings -- G642, COMPCAD, SOFT and FFWON for every machining type, deselection
+    back to the reset values and COMPOF -- which the manuals found do not state as a table
+    (CUST_832 is the machine builder's): ``from_file`` says whether the machine file gave it."""
+
+    off: Cycle832Expansion = _DESELECT
+    finish: Cycle832Expansion = _SELECT
+    semifinish: Cycle832Expansion = _SELECT
+    rough: Cycle832Expansion = _SELECT
+    precision: Cycle832Expansion = _SELECT
+    from_file: bool = False
+
+    def expansion(self, machining_type: int) -> Cycle832Expansion:
+        """The expansion of S_TOLM units digit 0..4."""
+        return getattr(self, CYCLE832_TYPES[machining_type])
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,6 +141,7 @@ class MachineSpec:
     structure: StructureSpec = field(default_factory=StructureSpec)
     #: values accepted but unusual (likely in the wrong unit), from the file's reader
     warnings: tuple[ConfigWarning, ...] = field(default=(), compare=False)
+    cycle832: Cycle832Spec = field(default_factory=Cycle832Spec)
 
     def axis(self, name: str) -> AxisSpec:
         for a in self.axes:
@@ -95,6 +166,21 @@ class MachineSpec:
         """Kv per axis (NaN where the file gives none)."""
         return _ro(np.array([np.nan if a.position_gain_1_s is None else a.position_gain_1_s
                              for a in self.axes]))
+
+    @property
+    def max_accel_ovl_factor(self) -> np.ndarray:
+        """MD32310 per axis."""
+        return _ro(np.array([a.max_accel_ovl_factor for a in self.axes]))
+
+    @property
+    def compress_pos_tol_mm(self) -> np.ndarray:
+        """MD33100 per axis."""
+        return _ro(np.array([a.compress_pos_tol_mm for a in self.axes]))
+
+    @property
+    def path_trans_pos_tol_mm(self) -> np.ndarray:
+        """MD33120 per axis."""
+        return _ro(np.array([a.path_trans_pos_tol_mm for a in self.axes]))
 
     def work_offset_mm(self, name: str) -> np.ndarray | None:
         for key, value in self.work_offsets_mm:
@@ -123,6 +209,12 @@ def _ro(a: np.ndarray) -> np.ndarray:
 # Loading and validation (through ncsim.config: one reader, one error policy)
 # ---------------------------------------------------------------------------------------------
 
+def overload_factor(v: float) -> str | None:
+    """MD32310: 1.0 (only tangential transitions at speed) or more."""
+    return None if 1.0 <= v <= 1000.0 else ("must be >= 1 (MD32310 overload factor; 1 stops at "
+                                             "every corner) and at most 1000")
+
+
 # (toml key, spec field, required, check, converter to internal units). The ranges are what
 # is physically possible, with a wide margin around every real machine; inside them no
 # arithmetic of the planner overflows or divides by (almost) zero. What is possible but
@@ -132,6 +224,9 @@ _AXIS_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
     ("max_accel_m_s2", "max_accel_mm_s2", True, between(1e-3, 1e6, "m/s^2"), m_s2_to_mm_s2),
     ("max_jerk_m_s3", "max_jerk_mm_s3", True, between(1e-3, 1e9, "m/s^3"), m_s3_to_mm_s3),
     ("position_gain_1_s", "position_gain_1_s", False, between(1e-2, 1e4, "1/s"), float),
+    ("max_accel_ovl_factor", "max_accel_ovl_factor", False, overload_factor, float),
+    ("compress_pos_tol_mm", "compress_pos_tol_mm", False, between(1e-6, 100.0, "mm"), float),
+    ("path_trans_pos_tol_mm", "path_trans_pos_tol_mm", False, between(1e-6, 100.0, "mm"), float),
 )
 
 MAX_LOOKAHEAD_BLOCKS = 100_000   # MD28060 $MC_MM_IPO_BUFFER_SIZE is in the hundreds
@@ -145,8 +240,6 @@ _NCU_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
     ("transition_time_ms", "transition_time_s", True, between(1e-3, 1e5, "ms"), ms_to_s),
     ("lookahead_blocks", "lookahead_blocks", True, None, int),   # 1..MAX_LOOKAHEAD_BLOCKS
     ("normal_accel_share", "normal_accel_share", False, open_share, float),
-    ("corner_velocity_jump_factor", "corner_velocity_jump_factor", False,
-     between(1e-6, 1000.0, ""), float),
     ("exact_stop_fine_settle_ms", "exact_stop_fine_settle_s", False, between(0.0, 1e5, "ms"),
      ms_to_s),
     ("exact_stop_coarse_settle_ms", "exact_stop_coarse_settle_s", False,
@@ -155,7 +248,21 @@ _NCU_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
     ("drive_accel_reduction_ratio", "drive_accel_reduction_ratio", False, share0, float),
     ("circle_error_const_mm", "circle_error_const_mm", False, between(1e-9, 1000.0, "mm"), float),
     ("circle_error_factor", "circle_error_factor", False, share0, float),
+    ("smooth_contur_tol_mm", "smooth_contur_tol_mm", False, between(1e-6, 100.0, "mm"), float),
+    ("compress_block_path_limit_mm", "compress_block_path_limit_mm", False,
+     between(1e-6, 1e9, "mm"), float),
+    ("crit_spline_angle_deg", "crit_spline_angle_rad", False, between(0.0, 180.0, "degrees"),
+     deg_to_rad),
 )
+#: [ncu] keys that are not plain numbers (read in machine_from_dict)
+_NCU_OTHER_KEYS = ("smoothing_mode", "ignore_ovl_factor_for_adis")
+#: keys of earlier versions: what replaced them
+_REPLACED_KEYS = {
+    ("ncu", "corner_velocity_jump_factor"):
+        "replaced by max_accel_ovl_factor in [axes.X], [axes.Y], [axes.Z] (MD32310: the G64 "
+        "velocity jump is A (factor - 1) t_IPO, so the new value is 1 + the old one)",
+}
+_CYCLE832_KEYS = ("path_mode", "compressor", "accel_mode", "feed_forward")
 
 _STRUCTURE_KEYS = (
     ("radial_compliance_um_per_m_s2", "radial_compliance_mm_per_mm_s2", False,
@@ -188,7 +295,10 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
     """Validate a parsed machine file; every problem is collected into one
     :class:`~ncsim.errors.MachineSpecError`."""
     c = Problems(file, MachineSpecError)
-    c.unknown(data, "", {"machine", "axes", "ncu", "work_offsets", "structure"})
+    c.unknown(data, "", {"machine", "axes", "ncu", "work_offsets", "structure", "cycle832"})
+    for (table, key), message in _REPLACED_KEYS.items():
+        if isinstance(data.get(table), dict) and key in data[table]:
+            c.add(f"{table}.{key}", message)
 
     mtab = c.table(data, "machine", required=True)
     c.unknown(mtab, "machine", {"name", "description"})
@@ -210,11 +320,13 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
         c.unknown(t, prefix, {k for k, *_ in _AXIS_KEYS})
         values = {f: c.number(t, prefix, k, required=req, check=chk, convert=conv)
                   for k, f, req, chk, conv in _AXIS_KEYS}
-        if all(values[f] is not None for _, f, req, *_ in _AXIS_KEYS if req):
+        values = {f: v for f, v in values.items() if v is not None or f == "position_gain_1_s"}
+        if all(values.get(f) is not None for _, f, req, *_ in _AXIS_KEYS if req):
             axes.append(AxisSpec(name=ax, **values))
 
     ntab = c.table(data, "ncu", required=True)
-    c.unknown(ntab, "ncu", {k for k, *_ in _NCU_KEYS})
+    c.unknown(ntab, "ncu", {k for k, *_ in _NCU_KEYS} | set(_NCU_OTHER_KEYS)
+              | {k for t, k in _REPLACED_KEYS if t == "ncu"})
     ncu_values = {}
     for k, f, req, chk, conv in _NCU_KEYS:
         if conv is int:
@@ -224,6 +336,17 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
             v = c.number(ntab, "ncu", k, required=req and "ncu" in data, check=chk, convert=conv)
         if v is not None:
             ncu_values[f] = v
+    mode = c.integer(ntab, "ncu", "smoothing_mode", minimum=0)
+    if mode is not None:
+        if mode in (0, 10):
+            ncu_values["smoothing_mode"] = mode
+        else:
+            c.add("ncu.smoothing_mode", "MD20480: ncsim simulates the tens digit (0: G642 within the "
+                  "axis tolerances MD33100, 10: within the contour tolerance SD42465); give 0 or 10")
+    ignore = c.boolean(ntab, "ncu", "ignore_ovl_factor_for_adis")
+    if ignore is not None:
+        ncu_values["ignore_ovl_factor_for_adis"] = ignore
+    cycle832 = _cycle832_spec(c, data)
 
     wtab = c.table(data, "work_offsets")
     c.unknown(wtab, "work_offsets", set(WORK_OFFSET_NAMES))
@@ -247,7 +370,7 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
     return MachineSpec(name=name, description=description, axes=tuple(axes),
                        ncu=NcuSpec(**ncu_values), source=file,
                        work_offsets_mm=tuple(offsets), structure=StructureSpec(**svalues),
-                       warnings=tuple(c.warnings))
+                       warnings=tuple(c.warnings), cycle832=cycle832)
 
 
 def _unusual_values(c: Problems, tables: dict[str, dict]) -> None:
@@ -305,6 +428,37 @@ def _unusual_jerks(c: Problems, tables: dict[str, dict]) -> None:
                    f"it would limit nothing (in mm/s^3? that is {jerks[key] * 1e-3:.4g} m/s^3)")
 
 
+def _cycle832_spec(c: Problems, data: dict) -> Cycle832Spec:
+    """The ``[cycle832.<type>]`` tables: ``path_mode`` (G60, G64, G641..G645 or "reset"),
+    ``compressor`` (COMPOF, COMPON, COMPCURV, COMPCAD, COMPSURF), ``accel_mode`` (SOFT, BRISK,
+    DRIVE or "reset"), ``feed_forward`` (FFWON, FFWOF or "reset")."""
+    table = c.table(data, "cycle832")
+    if "cycle832" not in data:
+        return Cycle832Spec()
+    c.unknown(table, "cycle832", set(CYCLE832_TYPES))
+    types = {}
+    choices = (("path_mode", {**PATH_MODE_CODES, RESET.upper(): None}),
+               ("compressor", COMPRESSOR_CODES),
+               ("accel_mode", {**ACCEL_MODE_CODES, RESET.upper(): None}),
+               ("feed_forward", {"FFWON": True, "FFWOF": False, RESET.upper(): None}))
+    for name in CYCLE832_TYPES:
+        prefix = f"cycle832.{name}"
+        t = c.table(table, name, prefix="cycle832")
+        c.unknown(t, prefix, set(_CYCLE832_KEYS))
+        default = getattr(Cycle832Spec(), name)
+        values = {}
+        for key, allowed in choices:
+            text = c.string(t, prefix, key)
+            if text is None:
+                continue
+            if text.upper() not in allowed:
+                c.add(f"{prefix}.{key}", f"must be one of {', '.join(k for k in allowed)}, got {text!r}")
+                continue
+            values[key] = allowed[text.upper()]
+        types[name] = replace(default, **values)
+    return Cycle832Spec(**types, from_file=True)
+
+
 def bundled_machines() -> dict[str, str]:
     """Name -> description of the machines shipped with ncsim."""
     out = {}
@@ -347,7 +501,10 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
         lines += ["", f"[axes.{a.name}]",
                   f"max_velocity_m_min = {_f(mm_s_to_m_min(a.max_velocity_mm_s))}  # MD32000 $MA_MAX_AX_VELO",
                   f"max_accel_m_s2 = {_f(mm_s2_to_m_s2(a.max_accel_mm_s2))}  # MD32300 $MA_MAX_AX_ACCEL",
-                  f"max_jerk_m_s3 = {_f(mm_s3_to_m_s3(a.max_jerk_mm_s3))}  # MD32431 $MA_MAX_AX_JERK"]
+                  f"max_jerk_m_s3 = {_f(mm_s3_to_m_s3(a.max_jerk_mm_s3))}  # MD32431 $MA_MAX_AX_JERK",
+                  f"max_accel_ovl_factor = {_f(a.max_accel_ovl_factor)}  # MD32310 $MA_MAX_ACCEL_OVL_FACTOR",
+                  f"compress_pos_tol_mm = {_f(a.compress_pos_tol_mm)}  # MD33100 $MA_COMPRESS_POS_TOL",
+                  f"path_trans_pos_tol_mm = {_f(a.path_trans_pos_tol_mm)}  # MD33120 $MA_PATH_TRANS_POS_TOL"]
         if a.position_gain_1_s is not None:
             lines.append(f"position_gain_1_s = {_f(a.position_gain_1_s)}  # MD32200 $MA_POSCTRL_GAIN (Kv) in 1/s")
     n = spec.ncu
@@ -359,17 +516,32 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
               f"transition_time_ms = {_f(s_to_ms(n.transition_time_s))}",
               f"lookahead_blocks = {n.lookahead_blocks}",
               f"normal_accel_share = {_f(n.normal_accel_share)}",
-              f"corner_velocity_jump_factor = {_f(n.corner_velocity_jump_factor)}",
               f"exact_stop_fine_settle_ms = {_f(s_to_ms(n.exact_stop_fine_settle_s))}",
               f"exact_stop_coarse_settle_ms = {_f(s_to_ms(n.exact_stop_coarse_settle_s))}",
               f"drive_speed_point_ratio = {_f(n.drive_speed_point_ratio)}",
               f"drive_accel_reduction_ratio = {_f(n.drive_accel_reduction_ratio)}",
               f"circle_error_const_mm = {_f(n.circle_error_const_mm)}",
-              f"circle_error_factor = {_f(n.circle_error_factor)}"]
+              f"circle_error_factor = {_f(n.circle_error_factor)}",
+              f"smooth_contur_tol_mm = {_f(n.smooth_contur_tol_mm)}  # SD42465 $SC_SMOOTH_CONTUR_TOL",
+              f"smoothing_mode = {n.smoothing_mode}  # MD20480 $MC_SMOOTHING_MODE",
+              f"ignore_ovl_factor_for_adis = {'true' if n.ignore_ovl_factor_for_adis else 'false'}"
+              f"  # MD20490 $MC_IGNORE_OVL_FACTOR_FOR_ADIS",
+              f"compress_block_path_limit_mm = {_f(n.compress_block_path_limit_mm)}  # MD20170",
+              f"crit_spline_angle_deg = {_f(rad_to_deg(n.crit_spline_angle_rad))}  # SD42470"]
     if spec.work_offsets_mm:
         lines += ["", "[work_offsets]"]
         for key, (x, y, z) in spec.work_offsets_mm:
             lines.append(f"{key} = [{_f(x)}, {_f(y)}, {_f(z)}]")
+    if spec.cycle832.from_file:
+        names = {"path_mode": lambda v: RESET if v is None else f"G{v}",
+                 "compressor": lambda v: COMPRESSOR_NAMES[v],
+                 "accel_mode": lambda v: RESET if v is None else {SOFT: "SOFT", BRISK: "BRISK",
+                                                                   DRIVE: "DRIVE"}[v],
+                 "feed_forward": lambda v: RESET if v is None else ("FFWON" if v else "FFWOF")}
+        for t in CYCLE832_TYPES:
+            e = spec.cycle832.expansion(CYCLE832_TYPES.index(t))
+            lines += ["", f"[cycle832.{t}]"]
+            lines += [f"{k} = {_q(fmt(getattr(e, k)))}" for k, fmt in names.items()]
     if spec.structure.radial_compliance_mm_per_mm_s2:
         lines += ["", "[structure]",
                   f"radial_compliance_um_per_m_s2 = {_f(s2_to_um_per_m_s2(spec.structure.radial_compliance_mm_per_mm_s2))}"]

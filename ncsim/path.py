@@ -18,7 +18,12 @@ modal columns say how the NC treats the segment and its junctions:
   SOFT/BRISK/DRIVE change, G4 dwell, rapid/feed change) -- no rounding across it;
 * ``dwell_before_s``: dwell time spent at the start of this segment (G4);
 * ``stop_window``: the exact-stop criterion in force (601 fine, 602 coarse, 603 IPO end);
-* ``cp_mode`` / ``adis_mm``: continuous-path mode (60, 64, 641, 642, ...) and its ADIS.
+* ``cp_mode`` / ``adis_mm``: continuous-path mode (60, 64, 641, 642, ...) and its ADIS;
+* ``compressor``: the NC block compressor in force for the block (COMPOF 0, COMPON 1, COMPCURV
+  2, COMPCAD 3, COMPSURF 4), 0 also when the block is not of the simple form the compressor
+  takes (``N.. G1 X.. Y.. Z.. F..``, SINUMERIK Job Planning "NC block compression");
+* ``ctol_mm``: the programmed contour tolerance in force (CTOL= or CYCLE832), NaN when none
+  (the machine data MD33100/SD42465 apply).
 """
 from __future__ import annotations
 
@@ -34,6 +39,14 @@ SOFT = 0
 BRISK = 1
 DRIVE = 2
 ACCEL_MODE_NAMES = {SOFT: "SOFT", BRISK: "BRISK", DRIVE: "DRIVE"}
+
+COMPOF = 0
+COMPON = 1
+COMPCURV = 2
+COMPCAD = 3
+COMPSURF = 4
+COMPRESSOR_NAMES = {COMPOF: "COMPOF", COMPON: "COMPON", COMPCURV: "COMPCURV", COMPCAD: "COMPCAD",
+                    COMPSURF: "COMPSURF"}
 
 # Column name -> (dtype, shape suffix, default for a line row)
 _COLUMNS: dict[str, tuple[type, tuple[int, ...], object]] = {
@@ -58,6 +71,8 @@ _COLUMNS: dict[str, tuple[type, tuple[int, ...], object]] = {
     "ffw": (np.bool_, (), False),
     "stop_before": (np.bool_, (), False),
     "dwell_before_s": (np.float64, (), 0.0),
+    "compressor": (np.int8, (), COMPOF),
+    "ctol_mm": (np.float64, (), np.nan),
 }
 
 
@@ -87,6 +102,8 @@ class Segment:
     ffw: bool
     stop_before: bool
     dwell_before_s: float
+    compressor: int = COMPOF
+    ctol_mm: float = float("nan")
 
     @property
     def is_arc(self) -> bool:
@@ -125,6 +142,8 @@ class Path:
     ffw: np.ndarray
     stop_before: np.ndarray
     dwell_before_s: np.ndarray
+    compressor: np.ndarray
+    ctol_mm: np.ndarray
     files: tuple[str, ...] = ("<program>",)
     end_dwell_s: float = 0.0  # dwell after the last segment (G4 at the end of the program)
 
@@ -188,6 +207,8 @@ class Path:
             ffw=bool(self.ffw[i]),
             stop_before=bool(self.stop_before[i]),
             dwell_before_s=float(self.dwell_before_s[i]),
+            compressor=int(self.compressor[i]),
+            ctol_mm=float(self.ctol_mm[i]),
         )
 
     def segments(self) -> Iterable[Segment]:

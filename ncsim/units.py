@@ -102,3 +102,12 @@ def feed_from_mm_s(value_mm_s, unit: str = "mm/min"):
     if unit not in FEED_UNITS:
         raise ValueError(f"unknown feed unit {unit!r} (use {', '.join(FEED_UNITS)})")
     return value_mm_s / FACTORS["velocity"][unit]
+
+
+def deg_to_rad(value_deg):
+    """Angles in files and NC words (CRIT_SPLINE_ANGLE, OTOL) are in degrees."""
+    return value_deg / DEG_PER_RAD
+
+
+def rad_to_deg(value_rad):
+    return value_rad * DEG_PER_RAD

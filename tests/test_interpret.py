@@ -233,11 +233,15 @@ def test_cycle832_and_modes_recorded_with_lines():
     r = run("DEF REAL _TOL=0.02\nCYCLE832(_TOL,1,1)\nG1 X1 F100\nCOMPCAD\nDYNFINISH\nMSG(\"finish\")\nX2\n"
             "COMPOF DYNNORM\nM30\n")
     assert [(c.name, c.args, c.line, c.segment_index) for c in r.cycle832_calls] == [("CYCLE832", (0.02, 1.0, 1.0), 2, 0)]
+    # CYCLE832 finishing selects DYNFINISH (technology group 59); COMPCAD is simulated
     assert [(c.name, c.line, c.segment_index) for c in r.mode_changes] == [
-        ("COMPCAD", 4, 1), ("DYNFINISH", 5, 1), ("COMPOF", 8, 2), ("DYNNORM", 8, 2)]
+        ("DYNFINISH", 2, 0), ("COMPCAD", 4, 1), ("DYNFINISH", 5, 1), ("COMPOF", 8, 2),
+        ("DYNNORM", 8, 2)]
     assert [(m.args, m.line) for m in r.messages] == [(("finish",), 6)]
-    warned = {(w.line, w.message.split(" ")[0]) for w in r.warnings}
-    assert warned == {(2, "CYCLE832(0.02,"), (4, "COMPCAD:"), (5, "DYNFINISH:")}
+    warned = {(w.line, w.message.split(":")[0]) for w in r.warnings}
+    # no machine file: the default expansion is said; the dynamic response is not simulated
+    assert warned == {(2, "CYCLE832"), (2, "CYCLE832 selects DYNFINISH"), (5, "DYNFINISH")}
+    assert not any("not simulated" in w.message and "CYCLE832(" in w.message for w in r.warnings)
 
 
 def test_not_simulated_constructs_warn_with_their_line():

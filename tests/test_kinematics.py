@@ -195,27 +195,42 @@ def test_tangential_accel_left_on_a_circle_is_sqrt_a2_minus_an2():
 
 # ---- corners and acceleration modes ---------------------------------------------------------------
 
-def test_g64_corner_feed_is_the_velocity_jump_of_one_cycle():
+def test_g64_corner_feed_is_the_overload_factors_velocity_jump():
+    """840D B1: velocity jump = axis acceleration x (MD32310 - 1) x interpolator cycle."""
     x, y = np.array([1.0, 0, 0]), np.array([0, 1.0, 0])
-    # 90 deg X -> Y: both axes jump by V; X allows 2500*0.012 = 30 mm/s, Y 36 mm/s
-    assert kin.corner_feed_g64_mm_s(x, y, A_AX, T_CY) == pytest.approx(30.0)
-    assert kin.corner_feed_g64_mm_s(x, y, A_AX, T_CY, 2.0) == pytest.approx(60.0)
+    # MD32310 = 2: 90 deg X -> Y, both axes jump by V; X allows 2500*1*0.012 = 30 mm/s, Y 36
+    assert kin.corner_feed_g64_mm_s(x, y, A_AX, T_CY, 2.0) == pytest.approx(30.0)
+    # MD32310 = 1.2 (the usual delivery value): 2500 * 0.2 * 0.012 = 6 mm/s
+    assert kin.corner_feed_g64_mm_s(x, y, A_AX, T_CY, 1.2) == pytest.approx(6.0)
+    # per axis: Y's factor 1.1 gives 3000 * 0.1 * 0.012 = 3.6 < X's 6
+    assert kin.corner_feed_g64_mm_s(x, y, A_AX, T_CY, np.array([1.2, 1.1, 1.2])) == pytest.approx(3.6)
+    # factor 1: "only tangential transitions with finite velocity": the corner stops
+    assert kin.corner_feed_g64_mm_s(x, y, A_AX, T_CY, 1.0) == 0.0
     # reversal along X: the jump is 2V
-    assert kin.corner_feed_g64_mm_s(x, -x, A_AX, T_CY) == pytest.approx(15.0)
-    assert kin.corner_feed_g64_mm_s(x, x, A_AX, T_CY) == np.inf
+    assert kin.corner_feed_g64_mm_s(x, -x, A_AX, T_CY, 2.0) == pytest.approx(15.0)
+    assert kin.corner_feed_g64_mm_s(x, x, A_AX, T_CY, 2.0) == np.inf
 
 
-def test_deflection_and_rounding_radius():
+def test_deflection_angle():
     x = np.array([1.0, 0, 0])
     t30 = kin.tangent_from_angle(deg(30))
     assert kin.deflection_angle_rad(x, t30) == pytest.approx(deg(30))
     assert kin.deflection_angle_rad(x, -x) == pytest.approx(math.pi)
-    assert kin.rounding_radius_mm(0.5, math.pi / 2) == pytest.approx(0.5)
-    assert kin.rounding_radius_mm(1.0, deg(30)) == pytest.approx(1.0 / math.tan(deg(15)))
-    assert kin.rounding_radius_mm(1.0, math.pi) < 1e-15
-    # rounding feed: eq. 2 and eq. 11 on the blend radius
-    assert kin.corner_feed_rounding_mm_s(5.0, 1875.0) == pytest.approx(math.sqrt(5.0 * 1875.0))
-    assert kin.corner_feed_rounding_mm_s(5.0, 1875.0, 6000.0) == pytest.approx((6000.0 * 25) ** (1 / 3))
+
+
+def test_curvature_change_spread_over_a_length():
+    """eq. 13 when the change is a jump (length 0), (J l / dk)^(1/3) when it is spread wider
+    than the feed covers in dt; the jerk V^2 dk / max(l / V, dt) equals J at the result."""
+    j, dt = 5000.0, 0.012
+    dk = 1.0 / 14.0 - 1.0 / 16.0                     # the paper's 14 -> 16 mm transition
+    jump = math.sqrt(j * dt / dk)
+    assert kin.curvature_change_feed_mm_s(j, dt, dk, 0.0) == pytest.approx(jump)
+    assert jump * 60 / 1000 == pytest.approx(4.92, abs=0.005)      # paper 5.4.1: 4.92 m/min
+    for length in (0.1, 1.0, 5.0, 50.0):
+        v = float(kin.curvature_change_feed_mm_s(j, dt, dk, length))
+        assert v >= jump - 1e-9
+        assert v * v * dk / max(length / v, dt) == pytest.approx(j)
+    assert kin.curvature_change_feed_mm_s(j, dt, 0.0, 1.0) == np.inf
 
 
 def test_brisk_and_drive():

@@ -407,37 +407,12 @@ def test_g64_corner_and_tolerance(mikron):
         assert np.isfinite(lim.junction_cap_mm_s[1]) == corner
 
 
-def _corner(machine, a_dir, b_dir, length, adis, options=FULL_MODEL, cp_mode=642):
-    a, bd = np.asarray(a_dir, float), np.asarray(b_dir, float)
-    p1 = length * a / np.linalg.norm(a)
-    p2 = p1 + length * bd / np.linalg.norm(bd)
-    path = (Builder(cp_mode=cp_mode, adis_mm=adis).line([0, 0, 0], p1, 1000.0)
-            .line(p1, p2, 1000.0).build())
-    lim = path_limits(path, machine, options)
-    assert lim.junction_limit[1] == Limit.CORNER
-    return lim.junction_cap_mm_s[1]
-
-
-def test_g642_rounding(mikron):
-    x, y, z = [1, 0, 0], [0, 1, 0], [0, 0, 1]
-    # 90 deg, ADIS 5 -> r = 5: min(sqrt(5 * 0.75 * 2500), (6000 * 25)^(1/3)) = 53.1 > G64 30
-    assert _corner(mikron, x, y, 100.0, 5.0) == pytest.approx((J_TCURV * 25.0) ** (1 / 3))
-    assert _corner(mikron, x, y, 100.0, 5.0, NO_NCU) == pytest.approx(math.sqrt(5 * SHARE * 2500))
-    # a small ADIS rounds less than what G64 allows: the G64 value
-    assert _corner(mikron, x, y, 100.0, 0.5) == pytest.approx(30.0)
-    # ADIS limited to half the shorter block: 4-mm blocks, ADIS 5 -> 2
-    assert _corner(mikron, x, y, 4.0, 5.0, NO_NCU) == pytest.approx(math.sqrt(2 * SHARE * 2500))
-    # only the moving axes count: X -> Z uses A_mz = 2.1 (the XY corner ignored Z)
-    assert _corner(mikron, x, z, 100.0, 5.0, NO_NCU) == pytest.approx(math.sqrt(5 * SHARE * 2100))
-    # 30-degree deflection: r = ADIS / tan(15 deg); G64 = min(30/(1 - cos30), 36/sin30) = 72
-    r = 1.0 / math.tan(math.radians(15))
-    t30 = [math.cos(math.radians(30)), math.sin(math.radians(30)), 0]
-    assert _corner(mikron, x, t30, 100.0, 1.0) == pytest.approx(
-        max(36.0 / 0.5, min(math.sqrt(r * SHARE * 2500), (J_TCURV * r * r) ** (1 / 3))))
-    # ADIS 0 (or a reversal): no rounding, the G64 value
-    assert _corner(mikron, x, y, 100.0, 0.0, NO_NCU) == pytest.approx(30.0)
-    # G64 ignores ADIS; G60 (exact_stop) stops
-    assert _corner(mikron, x, y, 100.0, 5.0, cp_mode=64) == pytest.approx(30.0)
+def test_g64_ignores_adis_and_g60_stops(mikron):
+    """ADIS belongs to G641 (ncsim.plan.blend, tests/test_blend.py); under G64 the corner is
+    the overload factor's jump, under G60 an exact stop."""
+    lim = path_limits(Builder(cp_mode=64, adis_mm=5.0).line([0, 0, 0], [100, 0, 0], 1000.0)
+                      .line([100, 0, 0], [100, 100, 0], 1000.0).build(), mikron)
+    assert lim.path.n == 2 and lim.junction_cap_mm_s[1] == pytest.approx(30.0)
     g60 = path_limits(Builder(cp_mode=60).line([0, 0, 0], [10, 0, 0], 100.0, exact_stop=True)
                       .line([10, 0, 0], [10, 10, 0], 100.0).build(), mikron)
     assert g60.junction_cap_mm_s[1] == 0.0 and g60.junction_limit[1] == Limit.EXACT_STOP

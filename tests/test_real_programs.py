@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from ncsim.nc.interpret import interpret_file
-from ncsim.path import ARC, path_columns
+from ncsim.path import ARC, SOFT, path_columns
 
 KEYCHAIN = "Keychain_Schluesselanhaenger.mpf"
 ACHSKREUZ = "Coordinate_system_representation_Achskreuz.mpf"
@@ -57,8 +57,12 @@ def test_keychain_spot_checks(results):
     r = results[KEYCHAIN]
     plunge = by_line(r, 34)                       # N340 G1 Z0.0 F2069.
     assert plunge.start_mm.tolist() == [-10.46, -22.721, 16.0] and plunge.end_mm.tolist() == [-10.46, -22.721, 0.0]
-    assert plunge.feed_mm_s == pytest.approx(2069 / 60) and plunge.exact_stop and plunge.cp_mode == 60
-    assert plunge.stop_window == 601
+    assert plunge.feed_mm_s == pytest.approx(2069 / 60) and plunge.stop_window == 601
+    # N290 CYCLE832(_camtolerance,1,1) N300 COMPOF: G642, SOFT, FFWON, CTOL 0.02, no compressor
+    # (the header's G60 no longer holds); the stop before it is the BRISK -> SOFT change + M3 M7
+    assert not plunge.exact_stop and plunge.cp_mode == 642 and plunge.ctol_mm == 0.02
+    assert plunge.accel_mode == SOFT and plunge.ffw and plunge.compressor == 0
+    assert by_line(r, 630).cp_mode == 60 and by_line(r, 630).exact_stop   # after N6120 CYCLE832()
     arc = by_line(r, 36)                          # N360 G3 Y-24.021 I0.0 J-1.3 from
     assert arc.center_mm.tolist() == pytest.approx([-14.543, -24.021, 0.0])
     assert arc.radius_mm == pytest.approx(1.3) and arc.sweep_rad == pytest.approx(math.pi / 2)

@@ -636,7 +636,8 @@ def _explain_text(machine, ext, rows, feed_unit: str = "mm/min") -> str:
             f"  transition time dt (eq. 13)        {s_to_ms(n.transition_time_s):g} ms",
             f"  look-ahead                         {n.lookahead_blocks} blocks",
             f"  normal acceleration share          {n.normal_accel_share:g}",
-            f"  G64 corner velocity jump factor    {n.corner_velocity_jump_factor:g}",
+            "  G64 overload factor (MD32310)      "
+            + ", ".join(f"{a.name} {a.max_accel_ovl_factor:g}" for a in machine.axes),
             f"  exact-stop settle G601 / G602      {s_to_ms(n.exact_stop_fine_settle_s):g} / "
             f"{s_to_ms(n.exact_stop_coarse_settle_s):g} ms",
             "", "over the tangent direction in XY",

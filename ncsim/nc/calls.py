@@ -10,21 +10,23 @@ sections"; Programming Guide Advanced, "Subprogram technique"):
   simulated; nesting is limited to 16 levels (the default of the 840D's machine data);
 * M17/RET return, M2/M30 end the program, GOTOS jumps to its start.
 
-Cycles: ``MSG``, ``CYCLE832`` and ``CYCLE800`` are recorded (the latter two with a warning, they
-change the time or the geometry); any other standard cycle name (``CYCLE81``, ``POCKET3``,
-...) without a PROC of that name is recorded with a warning and makes no motion. A new built-in
-cycle is one handler in :attr:`Calls.builtins`.
+Cycles: ``CYCLE832`` (high speed settings) is simulated (:meth:`Calls._cycle832`); ``MSG`` is
+recorded, ``CYCLE800`` recorded with a warning (it changes the geometry); any other standard
+cycle name (``CYCLE81``, ``POCKET3``, ...) without a PROC of that name is recorded with a
+warning and makes no motion. A new built-in cycle is one handler in :attr:`Calls.builtins`.
 """
 from __future__ import annotations
 
+import math
 import re
 
 from ncsim.nc.context import CallFrame
 from ncsim.nc.expr import Where, format_value
 from ncsim.nc.flow import Unit, is_proc, split_units
-from ncsim.nc.modal import M_END, M_END_RESET, M_RETURN
+from ncsim.nc.modal import (CYCLE832_DYNAMICS, CYCLE832_TYPE_NAMES, M_END, M_END_RESET,
+                            M_RETURN)
 from ncsim.nc.parse import parse_text, read_program_text
-from ncsim.nc.settings import HANDLED_COMMANDS
+from ncsim.nc.settings import HANDLED_COMMANDS, Settings
 
 MAX_CALL_DEPTH = 16          # subprogram nesting (the 840D allows 16 levels with its default MD)
 SUBPROGRAM_SUFFIXES = (".SPF", ".spf", ".MPF", ".mpf")
@@ -41,6 +43,7 @@ class Calls:
     def __init__(self, state) -> None:
         self.state = state
         self.builtins = {"MSG": self._msg, "CYCLE832": self._cycle832, "CYCLE800": self._cycle800}
+        self.settings = Settings(state)
 
     # ---- the stack ---------------------------------------------------------------------------
 
@@ -153,11 +156,70 @@ class Calls:
         ctx.record("MSG", args)
 
     def _cycle832(self, ctx, name: str, args: tuple, col: int) -> None:
-        """CYCLE832 "High Speed Settings" (SINUMERIK Programming Manual Cycles): recorded."""
+        """CYCLE832(S_TOL, S_TOLM, S_OTOL) "High speed settings" (SINUMERIK NC programming manual
+        12/2019, "Programming cycles externally"; Operate commissioning "High speed settings").
+
+        S_TOL is the contour tolerance (CTOL); S_TOLM's units digit the machining type (0
+        deselection, 1 finishing, 2 rough-finishing, 3 roughing, 4 smooth finishing; the
+        predefined names _OFF, _FINISH, _SEMIFIN, _ROUGH and the _ORI_ forms), its tens digit 1
+        makes S_OTOL the orientation tolerance (OTOL, recorded); ``CYCLE832()`` deselects. What a
+        machining type switches -- G642/G645, COMPCAD..., SOFT, FFWON -- is the machine
+        builder's CUST_832: the machine file's ``[cycle832]`` table (:meth:`Settings.cycle832`).
+        Higher digits (old packed codes such as 102001, the Top Surface digit) are not decoded:
+        the machining type is simulated and a warning says so. Tolerance 0 deselects (a
+        secondary source, warned)."""
         ctx.record(name, args)
+        state = self.state
+        tol, mode, otol = (tuple(args) + (None, None, None))[:3]
         shown = ", ".join("" if a is None else format_value(a) for a in args)
-        ctx.warn("CYCLE832", f"CYCLE832({shown}): the high-speed settings (tolerance, "
-                 f"compressor, G64x, dynamic mode) are recorded but not simulated", col)
+        if not args:
+            units, tol = 0, 0.0
+        else:
+            if tol is None or isinstance(tol, str) or tol < 0.0:
+                raise ctx.error(f"CYCLE832({shown}): the tolerance S_TOL must be a number >= 0", col)
+            if mode is None:
+                ctx.warn("CYCLE832", f"CYCLE832({shown}) without a machining type: taken as "
+                         f"finishing (_FINISH)", col)
+                mode = 1.0
+            if isinstance(mode, str):
+                raise ctx.error(f"CYCLE832({shown}): the machining type must be a number", col)
+            code = ctx.whole_number(mode, "CYCLE832 machining type ", col)
+            units = code % 10
+            if units >= len(CYCLE832_TYPE_NAMES):
+                raise ctx.error(f"CYCLE832({shown}): machining type digit {units} is not defined "
+                                f"(0 deselection .. 4 smooth finishing)", col)
+            if code >= 100:
+                ctx.warn("CYCLE832", f"CYCLE832({shown}): only the machining type of code {code} "
+                         f"is simulated (units digit {units}: {CYCLE832_TYPE_NAMES[units]}); its "
+                         f"higher digits (old packed code or Top Surface) are not decoded, the "
+                         f"machine file's [cycle832] table applies", col)
+            if tol == 0.0 and units != 0:
+                ctx.warn("CYCLE832", f"CYCLE832({shown}): tolerance 0 taken as deselection", col)
+                units = 0
+            st = state.st
+            st.otol_deg = (otol if (code // 10) % 10 == 1 and isinstance(otol, float) and otol >= 0
+                           else math.nan)
+        machine = state.machine
+        spec = machine.cycle832 if machine is not None else None
+        if spec is None:
+            from ncsim.machine import Cycle832Spec
+            spec = Cycle832Spec()
+        tolerance = math.nan if units == 0 else tol * state.st.length_scale
+        self.settings.cycle832(ctx, spec.expansion(units), tolerance)
+        if units == 0:
+            state.st.otol_deg = math.nan
+        ctx.record(CYCLE832_DYNAMICS[units], ())
+        notes = state.cycle832_notes
+        if units != 0 and "dynamics" not in notes:
+            notes.add("dynamics")
+            ctx.warn("CYCLE832", f"CYCLE832 selects {CYCLE832_DYNAMICS[units]}: the dynamic "
+                     f"response of this technology group (MD20600 ff. per group) is not "
+                     f"simulated, the machine file's one set of dynamics is used", col)
+        if not spec.from_file and "defaults" not in notes:
+            notes.add("defaults")
+            ctx.warn("CYCLE832", "CYCLE832: the machine file has no [cycle832] table; the usual "
+                     "CUST_832 settings are used (G642, COMPCAD, SOFT, FFWON; deselection to the "
+                     "reset values)", col)
 
     def _cycle800(self, ctx, name: str, args: tuple, col: int) -> None:
         ctx.record(name, args)

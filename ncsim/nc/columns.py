@@ -162,7 +162,8 @@ class ColumnPath:
             file_index=fr.file_index, feed_mm_s=np.where(rapid, np.inf, feed), rapid=rapid,
             exact_stop=st.cp_mode == 60, stop_window=st.stop_window, cp_mode=st.cp_mode,
             adis_mm=np.where(rapid, st.adispos_mm, st.adis_mm), accel_mode=st.accel_mode,
-            ffw=st.ffw, stop_before=stop, dwell_before_s=dwell)
+            ffw=st.ffw, stop_before=stop, dwell_before_s=dwell,
+            compressor=np.where(cols["kind"] == ARC, 0, st.compressor), ctol_mm=st.ctol_mm)
         last = k - 1
         st.pending_stop = False
         st.pending_dwell_s = 0.0

@@ -138,6 +138,9 @@ class InterpreterState:
         self.circle_const_mm = ncu.circle_error_const_mm if ncu else DEFAULT_CIRCLE_ERROR_CONST_MM
         self.circle_factor = ncu.circle_error_factor if ncu else DEFAULT_CIRCLE_ERROR_FACTOR
         self.st = ModalState()             # never replaced: collaborators keep a reference
+        # the reset values CYCLE832's deselection returns to (MD20150 $MC_GCODE_RESET_VALUES)
+        self.reset_values = (self.st.cp_mode, self.st.accel_mode, self.st.ffw)
+        self.cycle832_notes: set = set()   # one-time CYCLE832 warnings already given
         self.stack: list[CallFrame] = []
         self.vars = Variables(self.stack)
         self.blocks = 0

@@ -11,7 +11,7 @@ exact stop (11, block)    G9                                              simula
 plane (6)                 G17 G18 G19                                     simulated
 frame suppression (9)     G53 G153 (and SUPA)                             simulated
 settable frame (8)        G500 G54..G57 G505..G599                        simulated (offsets)
-cp mode (10)              G60 G64 G641 G642 G643 G644 G645                recorded per segment
+cp mode (10)              G60 G64 G641 G642 G643 G644 G645                simulated (plan.blend)
 stop window (12)          G601 G602 G603                                  recorded per segment
 units (13)                G70 G71 G700 G710                               simulated
 distance (14)             G90 G91                                         simulated
@@ -26,7 +26,8 @@ are NcUnsupportedError at their word; unknown ones NcSemanticError. Commands are
 ``COMMANDS_NOT_SIMULATED`` (accepted, warned) and ``UNSUPPORTED_MOTION`` (splines: an error).
 
 Reset values are the 840D's as delivered (MD20150 $MC_GCODE_RESET_VALUES): G1, G17, G90,
-G71, G94, G60, G601, BRISK, FFWOF, G500, G40; a machine builder may change them.
+G71, G94, G60, G601, BRISK, FFWOF, COMPOF, G500, G40; a machine builder may change them.
+CTOL and OTOL are deleted at reset (no programmed tolerance: the machine data apply).
 
 :class:`ModalState` is mutable on purpose: million-block programs cannot afford a new object
 per block; the interpreter keeps one and advances it.
@@ -37,7 +38,7 @@ import math
 from dataclasses import dataclass, field
 
 from ncsim.nc.frames import IDENTITY, Frame
-from ncsim.path import BRISK, DRIVE, SOFT
+from ncsim.path import BRISK, COMPCAD, COMPCURV, COMPOF, COMPON, COMPSURF, DRIVE, SOFT
 from ncsim.units import MM_PER_INCH
 
 CIP = 10   # motion codes beyond G0..G3
@@ -82,8 +83,24 @@ INCH_FEED = {700}
 MM_PER_INCH_CODES = {70: MM_PER_INCH, 700: MM_PER_INCH, 71: 1.0, 710: 1.0}
 
 ACCEL_COMMANDS = {"SOFT": SOFT, "BRISK": BRISK, "DRIVE": DRIVE}
-COMPRESSOR_COMMANDS = ("COMPOF", "COMPON", "COMPCURV", "COMPCAD", "COMPSURF")
+#: group 30, the NC block compressor (simulated by ncsim.plan.compressor; COMPSURF as COMPCAD)
+COMPRESSOR_CODES = {"COMPOF": COMPOF, "COMPON": COMPON, "COMPCURV": COMPCURV,
+                    "COMPCAD": COMPCAD, "COMPSURF": COMPSURF}
+COMPRESSOR_COMMANDS = tuple(COMPRESSOR_CODES)
 DYNAMIC_COMMANDS = ("DYNNORM", "DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "DYNPREC")
+
+# CYCLE832 "High speed settings" (SINUMERIK NC programming manual 12/2019, "Programming cycles
+# externally", CYCLE832(S_TOL, S_TOLM, S_OTOL)). The machining type is the units digit of
+# S_TOLM; the tens digit 1 means S_OTOL is the orientation tolerance (the _ORI_ forms). The
+# predefined names of the cycle package and their codes:
+CYCLE832_CONSTANTS = {"_OFF": 0.0, "_FINISH": 1.0, "_SEMIFIN": 2.0, "_ROUGH": 3.0,
+                      "_PRECISION": 4.0, "_ORI_FINISH": 11.0, "_ORI_SEMIFIN": 12.0,
+                      "_ORI_ROUGH": 13.0}
+#: the technology G group 59 each machining type selects (SINUMERIK Operate commissioning,
+#: "High speed settings"): index into the dynamic-response machine data MD20600 etc.
+CYCLE832_DYNAMICS = ("DYNNORM", "DYNFINISH", "DYNSEMIFIN", "DYNROUGH", "DYNPREC")
+CYCLE832_TYPE_NAMES = ("deselection", "finishing", "rough-finishing", "roughing",
+                       "smooth finishing")
 
 # 840D commands that ncsim accepts without simulating them (each use is warned). The path they
 # would change is kept as programmed: the warning says what is missing.
@@ -127,6 +144,9 @@ class ModalState:
     stop_window: int = 601
     adis_mm: float = 0.0
     adispos_mm: float = 0.0
+    compressor: int = COMPOF             # group 30
+    ctol_mm: float = math.nan            # CTOL= / CYCLE832 contour tolerance; NaN: machine data
+    otol_deg: float = math.nan           # OTOL= orientation tolerance (recorded: no orientation)
     accel_mode: int = BRISK
     ffw: bool = False
     radius_comp: int = 40

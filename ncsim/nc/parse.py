@@ -29,6 +29,7 @@ from ncsim.errors import NcError, NcSyntaxError
 ADDRESSES = frozenset({
     "X", "Y", "Z", "A", "B", "C", "U", "V", "W", "I", "J", "K", "F", "S", "T", "D", "M", "H",
     "L", "P", "N", "G", "E", "Q", "CR", "AR", "TURN", "ADIS", "ADISPOS", "RPL", "AP", "RP", "SF",
+    "CTOL", "OTOL",
 })
 
 _UPPER = {c: c - 32 for c in range(ord("a"), ord("z") + 1)}

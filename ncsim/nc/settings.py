@@ -10,20 +10,27 @@
 * F is mm/min (inch/min under G700), positive; S the spindle speed; D a tool offset (its
   compensation is not simulated, a warning when it changes); every M and H output stops the path
   (M0 M1 M6 with a warning, their time is not simulated);
-* ADIS/ADISPOS are the G641 rounding distances; SOFT/BRISK/DRIVE change the acceleration mode
-  (and stop the path when they change); FFWON/FFWOF the feed-forward; STOPRE stops;
-* COMP*, DYN*, TRAORI and the like are recorded with a warning: they are not simulated.
+* ADIS/ADISPOS are the G641 rounding distances, CTOL the contour tolerance of the compressor
+  and of G642-G645 rounding, OTOL the orientation tolerance (recorded); a negative value deletes
+  them (Job Planning "CTOL, OTOL, ATOL"); SOFT/BRISK/DRIVE change the acceleration mode (and
+  stop the path when they change); FFWON/FFWOF the feed-forward; STOPRE stops;
+* COMPON/COMPCURV/COMPCAD/COMPSURF/COMPOF select the compressor (:mod:`ncsim.plan.compressor`;
+  COMPSURF is simulated as COMPCAD); G644 is simulated as G642 (warned);
+* :meth:`Settings.cycle832` is what CYCLE832 switches (the machine file's ``[cycle832]`` table);
+* DYN*, TRAORI and the like are recorded with a warning: they are not simulated.
 
 A new command word (a name without ``=``) is handled in :meth:`Settings.commands` and added to
 :data:`HANDLED_COMMANDS`, or it would be taken for a subprogram call.
 """
 from __future__ import annotations
 
+import math
+
 from ncsim.nc.expr import format_value
 from ncsim.nc.frames import Frame, mirroring, rotation_in_plane, rotation_rpy, scaling, translation
-from ncsim.nc.modal import (ACCEL_COMMANDS, COMMANDS_NOT_SIMULATED, COMPRESSOR_COMMANDS,
-                            DYNAMIC_COMMANDS, M_OPTIONAL_STOP, M_SPINDLE_CCW, M_SPINDLE_CW,
-                            M_SPINDLE_STOP, M_STOP, M_TOOL_CHANGE, UNSUPPORTED_MOTION)
+from ncsim.nc.modal import (ACCEL_COMMANDS, COMMANDS_NOT_SIMULATED, COMPRESSOR_CODES,
+                            COMPRESSOR_COMMANDS, DYNAMIC_COMMANDS, M_OPTIONAL_STOP, M_SPINDLE_CCW,
+                            M_SPINDLE_CW, M_SPINDLE_STOP, M_STOP, M_TOOL_CHANGE, UNSUPPORTED_MOTION)
 from ncsim.nc.words import AXES
 from ncsim.units import mm_min_to_mm_s
 
@@ -58,7 +65,11 @@ class Settings:
         if "distance" in g:
             st.incremental = g["distance"][0] == 91
         if "cp_mode" in g:
-            st.cp_mode = g["cp_mode"][0]
+            code, col = g["cp_mode"]
+            if code == 644 and st.cp_mode != 644:
+                ctx.warn("G644", "G644 (rounding with the greatest possible dynamics, MD20480) is "
+                         "simulated as G642 (rounding within the tolerances)", col)
+            st.cp_mode = code
         if "stop_window" in g:
             st.stop_window = g["stop_window"][0]
         if "settable" in g:
@@ -168,6 +179,12 @@ class Settings:
                 if value < 0.0:
                     raise ctx.error(f"{key} must not be negative", col)
                 setattr(st, attr, value * st.length_scale)
+        if "CTOL" in values:   # a negative value deletes it: the machine data apply again
+            value = values["CTOL"][0]
+            st.ctol_mm = value * st.length_scale if value >= 0.0 else math.nan
+        if "OTOL" in values:
+            value = values["OTOL"][0]
+            st.otol_deg = value if value >= 0.0 else math.nan
 
     def _m_function(self, ctx, code: int, col: int) -> None:
         st = self.st
@@ -198,11 +215,14 @@ class Settings:
                 st.ffw = name == "FFWON"
             elif name == "STOPRE":
                 st.pending_stop = True
-            elif name in COMPRESSOR_COMMANDS or name in DYNAMIC_COMMANDS:
+            elif name in COMPRESSOR_COMMANDS:
                 ctx.record(name, ())
-                if name not in ("COMPOF", "DYNNORM"):
-                    what = "compressor" if name.startswith("COMP") else "dynamic response mode"
-                    ctx.warn(name, f"{name}: the {what} is recorded but not simulated", col)
+                st.compressor = COMPRESSOR_CODES[name]
+            elif name in DYNAMIC_COMMANDS:
+                ctx.record(name, ())
+                if name != "DYNNORM":
+                    ctx.warn(name, f"{name}: the dynamic response mode is recorded but not "
+                             f"simulated (the machine file's one set of dynamics is used)", col)
             elif name in _TRANSFORMATIONS:
                 ctx.record(name, ())
                 ctx.warn("transformation", f"{name} kinematic transformation is not simulated "
@@ -213,6 +233,25 @@ class Settings:
                 raise ctx.unsupported(f"{name} ({UNSUPPORTED_MOTION[name]}) is not simulated", col)
             elif name == "MCALL":
                 self._modal_call(ctx, col)
+
+    # ---- CYCLE832 -----------------------------------------------------------------------------
+
+    def cycle832(self, ctx, expansion, tolerance_mm: float) -> None:
+        """Switch what CYCLE832 switches for one machining type: the path mode, the compressor,
+        the acceleration mode and the feed-forward of ``expansion``
+        (``machine.Cycle832Expansion``; ``None`` = the reset value), and the contour tolerance
+        CTOL (NaN: deleted). A change of the acceleration mode stops the path, as SOFT/BRISK
+        written in the program do."""
+        st = self.st
+        reset_cp, reset_accel, reset_ffw = self.state.reset_values
+        st.cp_mode = reset_cp if expansion.path_mode is None else expansion.path_mode
+        st.compressor = expansion.compressor
+        accel = reset_accel if expansion.accel_mode is None else expansion.accel_mode
+        if accel != st.accel_mode:
+            st.pending_stop = True
+        st.accel_mode = accel
+        st.ffw = reset_ffw if expansion.feed_forward is None else expansion.feed_forward
+        st.ctol_mm = tolerance_mm
 
     def _modal_call(self, ctx, col: int) -> None:
         if not ctx.calls:

@@ -19,6 +19,7 @@ import math
 
 from ncsim.nc import program as P
 from ncsim.nc.expr import format_value
+from ncsim.nc.modal import CYCLE832_CONSTANTS
 
 VAR_TYPES = {"REAL": 0.0, "INT": 0.0, "BOOL": 0.0, "STRING": "", "CHAR": ""}   # type -> default
 
@@ -35,7 +36,9 @@ class Variables:
 
     def read_var(self, name: str):
         entry = self.stack[-1].variables.get(name)
-        return None if entry is None else entry[1]
+        if entry is None:   # the cycle package's predefined names (_FINISH, ...): CYCLE832
+            return CYCLE832_CONSTANTS.get(name)
+        return entry[1]
 
     def bind_params(self, frame, params: tuple, args: tuple) -> None:
         """A PROC's parameters as its first variables, with the call's arguments."""

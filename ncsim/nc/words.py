@@ -27,7 +27,8 @@ CENTRE = ("I", "J", "K")
 INTER = ("I1", "J1", "K1")
 _ROTARY = ("A", "B", "C")
 _EXTRA_AXES = ("U", "V", "W")
-_VALUE_WORDS = ("CR", "AR", "TURN", "F", "S", "T", "D", "ADIS", "ADISPOS", "RPL", "L", "P")
+_VALUE_WORDS = ("CR", "AR", "TURN", "F", "S", "T", "D", "ADIS", "ADISPOS", "RPL", "L", "P", "CTOL",
+                "OTOL")
 _KEYWORDS = ("IF", "ELSE", "ENDIF", "WHILE", "ENDWHILE", "FOR", "TO", "ENDFOR", "REPEAT", "UNTIL",
              "LOOP", "ENDLOOP", "GOTO", "GOTOF", "GOTOB", "GOTOC", "DEF", "PROC", "EXTERN")
 _AXIS_MODES = ("AC", "IC")

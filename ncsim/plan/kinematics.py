@@ -36,8 +36,8 @@ __all__ = [
     "tangential_jerk_feed_limit_mm_s", "static_lookahead_mm_s", "cycle_time_feed_limit_mm_s",
     "ncu_tangential_jerk_mm_s3", "ncu_path_jerk_feed_limit_mm_s", "feed_set_point_mm_s",
     "curvature_jump_1_mm", "transition_feed_mm_s", "transition_feed_from_radii_mm_s",
-    "deflection_angle_rad", "corner_feed_g64_mm_s", "rounding_radius_mm",
-    "corner_feed_rounding_mm_s", "brisk_jerk_mm_s3", "drive_accel_mm_s2",
+    "deflection_angle_rad", "corner_feed_g64_mm_s", "curvature_change_feed_mm_s",
+    "brisk_jerk_mm_s3", "drive_accel_mm_s2",
 ]
 
 
@@ -216,6 +216,7 @@ def transition_feed_from_radii_mm_s(radius_before_mm, radius_after_mm, jerk_mm_s
 
 # ---------------------------------------------------------------------------------------------
 # Corners (tangent discontinuities) -- not in the paper's model; 840D continuous-path behaviour
+# (the rounding of G641-G645 is in ncsim.plan.blend)
 # ---------------------------------------------------------------------------------------------
 
 def deflection_angle_rad(tangent_before, tangent_after) -> np.ndarray:
@@ -226,35 +227,41 @@ def deflection_angle_rad(tangent_before, tangent_after) -> np.ndarray:
 
 
 def corner_feed_g64_mm_s(tangent_before, tangent_after, max_accel_mm_s2, ipo_cycle_s,
-                         velocity_jump_factor=1.0) -> np.ndarray:
-    """G64 corner feed without rounding: the axis velocity jump V |t2_i - t1_i| at the corner
-    must stay within what axis i can do in one interpolation cycle, f * A_mi * t_cy, so
-    ``V = min_i f A_mi t_cy / |t2_i - t1_i|`` (cf. 840D MD32310). +inf without a corner."""
+                         overload_factor) -> np.ndarray:
+    """G64 corner feed without rounding (840D B1 "Continuous-path mode", overload factor): the
+    velocity of axis i may jump at a block end by ``A_mi (MD32310_i - 1) t_IPO``, and crossing
+    the corner at feed V makes it jump by V |t2_i - t1_i|, so
+    ``V = min_i A_mi (f_i - 1) t_cy / |t2_i - t1_i|`` (f = MD32310 $MA_MAX_ACCEL_OVL_FACTOR per
+    axis or one value). f = 1 gives 0 ("only tangential transitions at finite velocity"); +inf
+    without a corner."""
     jump = np.asarray(tangent_after, dtype=np.float64) - np.asarray(tangent_before,
                                                                      dtype=np.float64)
-    allowed = velocity_jump_factor * np.asarray(max_accel_mm_s2, dtype=np.float64) * ipo_cycle_s
+    allowed = ((np.asarray(overload_factor, dtype=np.float64) - 1.0)
+               * np.asarray(max_accel_mm_s2, dtype=np.float64) * ipo_cycle_s)
     return _weakest_axis_along(allowed, jump)
 
 
-def rounding_radius_mm(adis_mm, deflection_rad) -> np.ndarray:
-    """Radius of the circular blend that starts and ends ADIS from the corner:
-    r = ADIS / tan(phi / 2) (phi the deflection angle). 0 for a reversal or ADIS = 0."""
-    half = 0.5 * np.asarray(deflection_rad, dtype=np.float64)
-    adis = np.asarray(adis_mm, dtype=np.float64)
-    t = np.tan(half)
-    t, adis = np.broadcast_arrays(t, adis)
-    return np.divide(adis, t, out=np.full(t.shape, np.inf), where=t > 0.0)
+def curvature_change_feed_mm_s(jerk_mm_s3, transition_time_s, curvature_change_1_mm,
+                               length_mm) -> np.ndarray:
+    """Crossing a curvature change spread over a length -- paper eq. 13/14 generalised.
 
+    At constant feed V a change |delta kappa| of the curvature vector changes the normal
+    acceleration by V^2 |delta kappa| (eq. 1), within the time the tool takes over the change:
+    l / V, but never less than the transition time dt (eq. 13: a jump is crossed in dt). The
+    jerk V^2 |delta kappa| / max(l / V, dt) must stay within J_t (eq. 14/15). It grows with V,
+    so the highest feed is the larger of the two branches::
 
-def corner_feed_rounding_mm_s(radius_mm, normal_accel_mm_s2,
-                              ncu_tangential_jerk_mm_s3_=np.inf) -> np.ndarray:
-    """Feed through a G641/G642 rounding of radius r: the blend is an arc, so eq. 2 with the
-    normal acceleration allowed and eq. 11 with a scalar J_tcurv (+inf leaves eq. 11 out):
-    ``min(sqrt(r * a_n), (J_tcurv r^2)^(1/3))``."""
-    v = normal_accel_feed_limit_mm_s(radius_mm, normal_accel_mm_s2)
-    if not np.isfinite(ncu_tangential_jerk_mm_s3_):
-        return v
-    return np.minimum(v, ncu_path_jerk_feed_limit_mm_s(ncu_tangential_jerk_mm_s3_, radius_mm))
+        V = max(sqrt(J_t dt / |delta kappa|)  [eq. 13],  (J_t l / |delta kappa|)^(1/3))
+
+    l = 0 is eq. 13 itself; no change gives +inf. Used where the 840D smooths a curvature jump
+    over a length: corner rounding (G641-G645), the compressor's curves, G645 transitions."""
+    dk = np.asarray(curvature_change_1_mm, dtype=np.float64)
+    j = np.asarray(jerk_mm_s3, dtype=np.float64)
+    length = np.asarray(length_mm, dtype=np.float64)
+    j, dk, length = np.broadcast_arrays(j, dk, length)
+    jump = transition_feed_mm_s(j, transition_time_s, dk)
+    spread = np.cbrt(np.divide(j * length, dk, out=np.full(dk.shape, np.inf), where=dk > 0.0))
+    return np.maximum(jump, spread)
 
 
 # ---------------------------------------------------------------------------------------------

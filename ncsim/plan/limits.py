@@ -82,16 +82,11 @@ rapid[k-1] != rapid[k] -> AUX_STOP; stop_before[k] -> AUX_STOP; exact_stop[k-1] 
 dwell_before_s[k] > 0 -> DWELL; junctions 0 and n -> PROGRAM_END. Otherwise:
 
 * tangent discontinuity (angle between the end tangent of k-1 and the start tangent of k above
-  ``TANGENT_TOL_RAD`` = 1e-4 rad), continuous-path mode of block k-1 (the block whose end it is):
-  - G64 (and any mode other than G641-G645; G60 is carried by ``exact_stop``): the axes may
-    jump in velocity by what they do in one interpolation cycle,
-    v = min_i f A_mi t_cy / |t2_i - t1_i| (f = ``corner_velocity_jump_factor``) [CORNER];
-  - G641..G645 with ADIS: a rounding arc of radius r = ADIS_eff / tan(phi/2), phi the
-    deflection, ADIS_eff = min(ADIS, half of each adjoining block's length) (the 840D shrinks the
-    rounding on short blocks), and v = max(G64 value, min(sqrt(r * normal_accel_share * A_min),
-    V_Jtcurv(r) [if ncu option])) [CORNER], A_min the least max acceleration of the axes that
-    move at the corner. The rounding does not shorten the path length (the blend is not part
-    of the geometry; its time is approximated by crossing the corner at v).
+  ``TANGENT_TOL_RAD`` = 1e-4 rad), crossed in continuous-path mode (G60 is carried by
+  ``exact_stop``): the axis velocities may jump by A_mi (MD32310_i - 1) t_IPO (840D B1,
+  overload factor), v = min_i A_mi (f_i - 1) t_cy / |t2_i - t1_i| [CORNER]. Under G641-G645
+  the corners that the 840D rounds are rounding blocks of :mod:`ncsim.plan.blend` by then
+  (:func:`path_limits` prepares the path with :mod:`ncsim.plan.hsm`).
 * tangent continuous but curvature vector jump |kappa1 n1 - kappa2 n2| above
   ``CURVATURE_TOL_REL`` x the larger curvature: eq. 13 generalised,
   V_fr = sqrt(J_t dt / |delta kappa|), dt = ``machine.ncu.transition_time_s`` and
@@ -122,7 +117,6 @@ SAMPLE_STEP_RAD = np.deg2rad(1.0)   # arc sampling step (plus both end points)
 SAMPLE_BUDGET = 1 << 20             # samples per chunk of arcs
 TANGENT_TOL_RAD = 1e-4              # deflection above which a junction is a corner
 CURVATURE_TOL_REL = 1e-6            # relative curvature-vector jump that counts as a transition
-ROUNDING_MODES = (641, 642, 643, 644, 645)
 _J_REL = 1e-12                      # relative tolerance on J_t >= J_tcurv
 _JMAX_REL = 1e-9                    # relative tolerance on "J_t is largest"
 
@@ -150,6 +144,8 @@ class PathLimits:
     junction_cap_mm_s: np.ndarray  # crossing cap: +inf unconstrained, 0 stop
     junction_limit: np.ndarray     # int8 Limit of the junction cap
     junction_dwell_s: np.ndarray   # time standing still at the junction
+    # -- the path these limits belong to: the programmed one prepared by ncsim.plan.hsm --------
+    path: Path | None = None       # (rounding blocks inserted); None: the caller's path
 
     def __post_init__(self) -> None:
         for name in ("cap_mm_s", "cap_limit", "jerk_mm_s3", "accel_mm_s2", "alpha_c_rad",
@@ -165,7 +161,18 @@ class PathLimits:
 
 def path_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_MODEL) -> PathLimits:
     """Feed set points, ramp jerk/acceleration and junction caps of ``path`` on ``machine``
-    (semantics in the module docstring)."""
+    (semantics in the module docstring), on the path as the 840D runs it: compressed runs and
+    G641-G645 rounding blocks (:mod:`ncsim.plan.hsm`). ``PathLimits.path`` is that path (the
+    programmed one when no HSM mode changes it), the one the planner plans."""
+    from ncsim.plan.hsm import prepare
+
+    prepared = prepare(path, machine, options)
+    return prepared.apply(block_limits(prepared.path, machine, options), machine, options)
+
+
+def block_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_MODEL) -> PathLimits:
+    """The limits of every block and junction of ``path`` as programmed (module docstring),
+    without the compressor and rounding of :func:`path_limits`."""
     n = path.n
     ncu = machine.ncu
     j_ncu = ncu.tangential_jerk_mm_s3 if options.ncu_path_jerk else np.inf
@@ -202,7 +209,7 @@ def path_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_M
     soft = (mode == SOFT) & options.jerk_limited_ramps
     jerk = np.where(soft, np.minimum(jerk_axis, j_ncu), kin.brisk_jerk_mm_s3(accel, ncu.ipo_cycle_s))
 
-    jcap, jlimit, jdwell = _junction_limits(path, machine, options, j_ncu)
+    jcap, jlimit, jdwell = _junction_limits(path, machine, options)
     return PathLimits(cap_mm_s=cap, cap_limit=limit, jerk_mm_s3=jerk, accel_mm_s2=accel,
                       alpha_c_rad=alpha_c, candidates=cand, junction_cap_mm_s=jcap,
                       junction_limit=jlimit, junction_dwell_s=jdwell)
@@ -376,7 +383,7 @@ def _settle_s(stop_window: np.ndarray, ncu) -> np.ndarray:
                      [ncu.exact_stop_coarse_settle_s, 0.0], ncu.exact_stop_fine_settle_s)
 
 
-def _junction_limits(path, machine, options, j_ncu):
+def _junction_limits(path, machine, options):
     n = path.n
     ncu = machine.ncu
     cap = np.full(n + 1, np.inf)
@@ -388,17 +395,9 @@ def _junction_limits(path, machine, options, j_ncu):
         deflection = kin.deflection_angle_rad(t1, t2)
         corner = deflection > TANGENT_TOL_RAD
 
-        # corners: G64 velocity jump, or G641.. rounding with ADIS
-        v64 = kin.corner_feed_g64_mm_s(t1, t2, machine.max_accel_mm_s2, ncu.ipo_cycle_s,
-                                       ncu.corner_velocity_jump_factor)
-        length = path.length_mm
-        adis = np.minimum(path.adis_mm[:-1], 0.5 * np.minimum(length[:-1], length[1:]))
-        r_blend = kin.rounding_radius_mm(adis, deflection)
-        moving = (np.abs(t1) + np.abs(t2)) > 1e-9
-        a_moving = np.where(moving, machine.max_accel_mm_s2, np.inf).min(axis=1)
-        v_round = kin.corner_feed_rounding_mm_s(r_blend, ncu.normal_accel_share * a_moving, j_ncu)
-        rounding = np.isin(path.cp_mode[:-1], ROUNDING_MODES)
-        v_corner = np.where(rounding, np.maximum(v64, v_round), v64)
+        # corners: the G64 axis velocity jump (rounded corners are ncsim.plan.blend's)
+        v_corner = kin.corner_feed_g64_mm_s(t1, t2, machine.max_accel_mm_s2, ncu.ipo_cycle_s,
+                                            machine.max_accel_ovl_factor)
 
         # curvature jumps with a continuous tangent: eq. 13 / 15
         k1 = end_curvatures(path)[:-1]

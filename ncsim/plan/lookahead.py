@@ -72,12 +72,16 @@ def plan(path: Path, machine: MachineSpec, options: ModelOptions = FULL_MODEL, *
          limits=None) -> Motion:
     """Plan the feed law of ``path`` on ``machine`` (see the module docstring).
 
-    ``limits`` (a ``limits.PathLimits``) may be given to reuse or replace stage 1.
+    ``limits`` (a ``limits.PathLimits``) may be given to reuse or replace stage 1. When the
+    limits carry the path they were made for (``limits.path``: with the compressor's runs and
+    the rounding blocks of ``ncsim.plan.hsm``), that path is planned.
     """
     if limits is None:
         from ncsim.plan.limits import path_limits
 
         limits = path_limits(path, machine, options)
+    if getattr(limits, "path", None) is not None:
+        path = limits.path
     n = path.n
     length = np.asarray(path.length_mm, dtype=np.float64)
     s_junction = np.concatenate([[0.0], np.cumsum(length)])

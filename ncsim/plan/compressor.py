@@ -1,0 +1,331 @@
+"""The NC block compressor (COMPON, COMPCURV, COMPCAD, COMPSURF): runs of short G1 blocks
+planned as one smooth curve.
+
+What the 840D does (SINUMERIK 840D sl Job Planning "NC block compression (COMPON, COMPCURV,
+COMPCAD, COMPOF)"; Basic Functions B1 "Compressor functions"; 808D Function Manual 01/2017):
+
+* it compresses linear blocks of the simple form ``N.. G1 X.. Y.. Z.. F..`` (positions may be
+  expressions); every other instruction -- an auxiliary function output, a stop, a change of
+  the acceleration mode, any block that is not of that form -- interrupts it. The interpreter
+  marks such blocks with ``Path.compressor = 0``, and stops already end a run here;
+* a block longer than MD20170 ``$MC_COMPRESS_BLOCK_PATH_LIMIT`` is not compressed;
+* the curve deviates from the programmed end points by at most the tolerance: per axis
+  MD33100 ``$MA_COMPRESS_POS_TOL``, or the programmed contour tolerance CTOL (CYCLE832);
+* COMPON (3rd-order polynomial, continuous velocity) and COMPCURV (5th order, continuous
+  acceleration) join up to 10 consecutive blocks into one polynomial block; COMPCAD joins any
+  number and keeps corners whose angle exceeds SD42470 ``$SC_CRIT_SPLINE_ANGLE``; COMPSURF
+  (Advanced Surface) is simulated as COMPCAD;
+* circles and G0 are not compressed (MD20482 ``$MC_COMPRESSOR_MODE`` hundreds digit 0), and the
+  F of the last block of a polynomial applies to all of it (FNORM, NC programming manual
+  "Feedrate profiles with the compressor").
+
+Representation. The polyline stays the path that is sampled (positions are the programmed
+points), but each run is *planned* as the smooth curve the compressor would make:
+
+* eq. 6 (one block per interpolation cycle) applies to the joined polynomial block, whose
+  length is the group's, not to the programmed 0.05 mm blocks;
+* the set-point limits that depend on the curvature (eq. 2/8, 4/9, 11) use the curvature of a
+  fitted smooth curve through the points, and its change along a block is crossed like a
+  transition spread over the block (eq. 13 generalised,
+  :func:`~ncsim.plan.kinematics.curvature_change_feed_mm_s`);
+* inside a run there are no corners (the junctions are smooth).
+
+The fitted curve. Each run is smoothed with a triangular kernel of half-width W in arc length,
+i.e. twice a moving average. With P(s) the polyline, its first and second antiderivatives I
+and J (piecewise polynomial, exact) give in closed form::
+
+    P_W(s)   = (J(s + W) - 2 J(s) + J(s - W)) / W^2      the smoothed point
+    P_W'(s)  = (I(s + W) - 2 I(s) + I(s - W)) / W^2
+    P_W''(s) = (P(s + W) - 2 P(s) + P(s - W)) / W^2      its curvature vector, once normalised
+
+The curvature of a kink of angle theta smoothed this way is theta K(s): a symmetric clothoid
+pair of length 2 W, the same curvature-continuous curve as the rounding of
+:mod:`ncsim.plan.blend`. A circle keeps its curvature for any W, and noise of amplitude d in
+the points gives curvature noise of about 2 d / W^2. At every programmed point W is the
+largest of W_MAX, W_MAX/2, ... for which the smoothed point stays within the tolerance of the
+programmed one (each axis within MD33100, or the distance within CTOL), so the deviation of
+the planned curve from the programmed points never exceeds the tolerance
+(``tests/test_compressor.py`` checks it). When no W at least as long as the point's adjoining
+blocks passes, the point is a corner the compressor keeps: the run is split there and the
+corner is crossed as a corner (G64 jump or a G642 rounding block). Runs are extended by
+straight lines along their end directions so that the window never leaves the run.
+
+Everything is vectorised over all runs at once (linear in the number of blocks).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ncsim.geometry import line_directions
+from ncsim.machine import MachineSpec
+from ncsim.path import COMPCAD, COMPSURF, LINE, Path
+from ncsim.plan.kinematics import deflection_angle_rad
+
+W_MAX_MM = 8.0             # widest smoothing half-width tried
+W_LEVELS = 12              # W_MAX, W_MAX/2, ... W_MAX/2^11 (4 um)
+MAX_GROUP_BLOCKS = 10      # COMPON/COMPCURV: blocks per polynomial (840D B1)
+_SPLIT_ROUNDS = 4          # refits after splitting runs at kept corners
+_RUN_GAP_MM = 1.0          # arc-length gap between runs in the joint arrays (never evaluated)
+
+
+@dataclass(frozen=True, slots=True)
+class Compression:
+    """The compressed runs of a path: per block (n) and per junction (n + 1)."""
+
+    in_run: np.ndarray             # bool: the block is part of a compressed run
+    joined: np.ndarray             # bool: the junction lies inside a run (no corner)
+    group_length_mm: np.ndarray    # length of the polynomial block the block belongs to
+    group_feed_mm_s: np.ndarray    # its feed: the F of its last block (FNORM)
+    curvature_1_mm: np.ndarray     # largest |kappa| of the fitted curve over the block
+    normal: np.ndarray             # (n, 3) principal normal where |kappa| is largest
+    curvature_change_1_mm: np.ndarray  # |kappa_vec(end) - kappa_vec(start)| over the block
+    deviation_mm: np.ndarray       # (n + 1,) distance of the fitted curve from the junction point
+    window_mm: np.ndarray          # (n + 1,) the half-width W used at the junction
+
+
+def compress(path: Path, machine: MachineSpec) -> Compression | None:
+    """The compressed runs of ``path`` (module docstring), or None when no block qualifies."""
+    n = path.n
+    if n < 2 or not np.any(path.compressor > 0):
+        return None
+    ncu = machine.ncu
+    length = path.length_mm
+    eligible = ((path.kind == LINE) & ~path.rapid & (path.compressor > 0) & (length > 0.0)
+                & (length <= ncu.compress_block_path_limit_mm))
+    joined = np.zeros(n + 1, dtype=bool)
+    inner = slice(1, n)
+    comp = path.compressor
+    u = line_directions(path)
+    deflection = deflection_angle_rad(u[:-1], u[1:])
+    keeps_corners = np.isin(comp[1:], (COMPCAD, COMPSURF))
+    joined[inner] = (eligible[:-1] & eligible[1:] & (comp[:-1] == comp[1:]) & ~path.stop_before[1:]
+                     & ~path.exact_stop[:-1] & (path.dwell_before_s[1:] <= 0.0)
+                     & ~(keeps_corners & (deflection > ncu.crit_spline_angle_rad)))
+    if not joined.any():
+        return None
+
+    vertex_tol = _vertex_tolerance(path)
+    for _ in range(_SPLIT_ROUNDS):
+        fit = _fit_runs(path, joined, vertex_tol, machine.compress_pos_tol_mm)
+        if fit is None:
+            return None
+        failed = fit["failed"]
+        if not failed.any():
+            break
+        joined[failed] = False
+    else:  # still failing after the last split: keep only what passed
+        joined[fit["failed"]] = False
+        fit = _fit_runs(path, joined, vertex_tol, machine.compress_pos_tol_mm)
+        if fit is None:
+            return None
+    return _per_block(path, joined, fit)
+
+
+def _vertex_tolerance(path: Path) -> np.ndarray:
+    """CTOL at each junction (n + 1): the smaller of its blocks' finite CTOL, NaN if none."""
+    ctol = path.ctol_mm
+    before = np.concatenate([[np.nan], ctol])
+    after = np.concatenate([ctol, [np.nan]])
+    return np.fmin(before, after)
+
+
+def _runs(joined: np.ndarray):
+    """(first block, last block) of every run of blocks joined by ``joined`` junctions."""
+    inner = joined[1:-1].astype(np.int8)
+    edges = np.diff(np.concatenate([[0], inner, [0]]))
+    first = np.nonzero(edges == 1)[0]          # junction k = first + 1 joins blocks first, first+1
+    last = np.nonzero(edges == -1)[0]          # last joined junction is last, so last block = last
+    return first, last
+
+
+def _fit_runs(path, joined, vertex_tol, axis_tol):
+    first, last = _runs(joined)
+    if len(first) == 0:
+        return None
+    n_vert = last - first + 2                   # junctions first .. last + 1
+    vert = _ranges(first, n_vert)               # junction indices, run after run
+    run_of = np.repeat(np.arange(len(first)), n_vert)
+    pts = np.empty((len(vert), 3))
+    is_start = vert == np.repeat(first, n_vert)
+    pts[is_start] = path.start_mm[vert[is_start]]
+    pts[~is_start] = path.end_mm[vert[~is_start] - 1]
+    seg_len = path.length_mm
+    # adjoining block lengths of every vertex (the smallest W a curve through it may have)
+    before = np.where(is_start, np.inf, seg_len[np.maximum(vert - 1, 0)])
+    is_end = vert == np.repeat(last + 1, n_vert)
+    after = np.where(is_end, np.inf, seg_len[np.minimum(vert, len(seg_len) - 1)])
+    w_floor = np.minimum(before, after)
+    inner = ~is_start & ~is_end
+    fit = smooth_polyline(pts, run_of, n_vert, w_floor, vertex_tol[vert], axis_tol)
+    failed = np.zeros(len(joined), dtype=bool)
+    failed[vert[inner & ~fit["ok"]]] = True
+    return dict(vert=vert, kappa=fit["kappa"], deviation=fit["deviation"], window=fit["window"],
+                failed=failed)
+
+
+def _ranges(start: np.ndarray, count: np.ndarray) -> np.ndarray:
+    """Concatenated ``arange(start[i], start[i] + count[i])``."""
+    total = int(count.sum())
+    offsets = np.repeat(start - np.concatenate([[0], np.cumsum(count)[:-1]]), count)
+    return np.arange(total) + offsets
+
+
+def smooth_polyline(points, run_of, n_vert, w_floor, ctol, axis_tol):
+    """Triangular-kernel smoothing of polylines (module docstring), all runs at once.
+
+    ``points`` (m, 3) are the vertices of the runs one after the other (``n_vert`` per run,
+    ``run_of`` the run of each). Returns per vertex the curvature vector ``kappa`` (1/mm), the
+    deviation vector of the smoothed point from the programmed one, the half-width ``window``
+    used and ``ok``: whether a W >= ``w_floor`` kept it within the tolerance (``ctol`` when
+    finite, else each axis within ``axis_tol``)."""
+    m = len(points)
+    n_runs = len(n_vert)
+    first = np.concatenate([[0], np.cumsum(n_vert)[:-1]])
+    last = first + n_vert - 1
+    d_start = _unit(points[first + 1] - points[first])
+    d_end = _unit(points[last] - points[last - 1])
+    # padded runs: a straight extension of W_MAX before and after each run, in run-local
+    # coordinates (relative to the run's first padded point) to keep the sums small
+    pos = np.arange(m) + 2 * run_of + 1                   # vertex -> padded index
+    q = np.empty((m + 2 * n_runs, 3))
+    q[pos] = points
+    q[first + 2 * np.arange(n_runs)] = points[first] - W_MAX_MM * d_start
+    q[last + 2 * np.arange(n_runs) + 2] = points[last] + W_MAX_MM * d_end
+    padded_run = np.repeat(np.arange(n_runs), n_vert + 2)
+    run_first = first + 2 * np.arange(n_runs)             # padded index of each run's first point
+    anchor = q[run_first]
+    q -= anchor[padded_run]
+
+    seg = np.diff(q, axis=0)                              # segment k: q[k] -> q[k + 1]
+    seg_len = np.sqrt(np.einsum("ij,ij->i", seg, seg))
+    crossing = padded_run[:-1] != padded_run[1:]          # dummy segments between runs
+    seg_len[crossing] = _RUN_GAP_MM
+    s = np.concatenate([[0.0], np.cumsum(seg_len)])       # global, strictly increasing
+    inv_len = 1.0 / seg_len
+    # first and second antiderivatives at the points, restarted at each run
+    c_i = 0.5 * (q[:-1] + q[1:]) * seg_len[:, None]
+    c_i[crossing] = 0.0
+    i_pts = _segmented_cumsum(c_i, crossing)
+    c_j = (i_pts[:-1] * seg_len[:, None] + q[:-1] * (seg_len ** 2 / 2.0)[:, None]
+           + seg * (seg_len ** 2 / 6.0)[:, None])
+    c_j[crossing] = 0.0
+    j_pts = _segmented_cumsum(c_j, crossing)
+
+    def evaluate(sq):
+        """Q, I, J of the padded polyline at arc lengths ``sq`` (inside a run)."""
+        k = np.clip(np.searchsorted(s, sq, side="right") - 1, 0, len(seg) - 1)
+        tau = (sq - s[k])[:, None]
+        d = seg[k] * inv_len[k][:, None]
+        qv = q[k] + d * tau
+        iv = i_pts[k] + q[k] * tau + d * (tau * tau / 2.0)
+        jv = j_pts[k] + i_pts[k] * tau + q[k] * (tau * tau / 2.0) + d * (tau ** 3 / 6.0)
+        return qv, iv, jv
+
+    s_v = s[pos]
+    q_v, i_v, j_v = q[pos], i_pts[pos], j_pts[pos]
+    kappa = np.zeros((m, 3))
+    deviation = np.zeros((m, 3))
+    window = np.zeros(m)
+    ok = np.zeros(m, dtype=bool)
+    todo = np.arange(m)
+    use_ctol = np.isfinite(ctol)
+    w = W_MAX_MM
+    for level in range(W_LEVELS):
+        if todo.size == 0:
+            break
+        lowest = level == W_LEVELS - 1
+        qp, ip, jp = evaluate(s_v[todo] + w)
+        qm, im, jm = evaluate(s_v[todo] - w)
+        dev = (jp - 2.0 * j_v[todo] + jm) / (w * w) - q_v[todo]
+        within = np.where(use_ctol[todo], np.sqrt(np.einsum("ij,ij->i", dev, dev)) <= ctol[todo],
+                          np.all(np.abs(dev) <= axis_tol, axis=1))
+        at_floor = (w * 0.5 < w_floor[todo]) | lowest      # the next W would be too short
+        take = within | at_floor
+        sel = todo[take]
+        d1 = (ip[take] - 2.0 * i_v[sel] + im[take]) / (w * w)
+        d2 = (qp[take] - 2.0 * q_v[sel] + qm[take]) / (w * w)
+        kappa[sel] = _curvature(d1, d2)
+        deviation[sel] = dev[take]
+        window[sel] = w
+        ok[sel] = within[take]
+        todo = todo[~take]
+        w *= 0.5
+    return dict(kappa=kappa, deviation=deviation, window=window, ok=ok)
+
+
+def _segmented_cumsum(c: np.ndarray, reset: np.ndarray) -> np.ndarray:
+    """Values at the points (len(c) + 1) of the running sum of ``c`` over segments, restarted
+    at 0 after every segment where ``reset`` is True (those segments contribute nothing).
+    Each reset segment takes minus the sum of its run (``np.add.reduceat``, one run at a
+    time), so the running sum returns to zero there and rounding stays at the scale of one
+    run instead of growing with the whole program."""
+    c = c.copy()
+    c[reset] = 0.0
+    r = np.nonzero(reset)[0]
+    if r.size:
+        starts = np.concatenate([[0], r + 1])        # run k: segments starts[k] .. r[k]
+        c[r] = -np.add.reduceat(c, starts, axis=0)[:len(r)]
+    out = np.empty((len(c) + 1, c.shape[1]))
+    out[0] = 0.0
+    np.cumsum(c, axis=0, out=out[1:])
+    return out
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    norm = np.sqrt(np.einsum("ij,ij->i", v, v))
+    return np.divide(v, norm[:, None], out=np.zeros_like(v), where=norm[:, None] > 0.0)
+
+
+def _curvature(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
+    """Curvature vector of a curve with derivatives d1, d2 along any parameter:
+    (d2 - (d2.T) T) / |d1|^2 with T = d1 / |d1|."""
+    speed2 = np.einsum("ij,ij->i", d1, d1)
+    t = _unit(d1)
+    normal_part = d2 - np.einsum("ij,ij->i", d2, t)[:, None] * t
+    return np.divide(normal_part, speed2[:, None], out=np.zeros_like(d2), where=speed2[:, None] > 0.0)
+
+
+def _per_block(path: Path, joined: np.ndarray, fit: dict) -> Compression:
+    n = path.n
+    vert = fit["vert"]
+    kappa_j = np.zeros((n + 1, 3))
+    kappa_j[vert] = fit["kappa"]
+    deviation = np.zeros(n + 1)
+    deviation[vert] = np.sqrt(np.einsum("ij,ij->i", fit["deviation"], fit["deviation"]))
+    window = np.zeros(n + 1)
+    window[vert] = fit["window"]
+
+    in_run = np.zeros(n, dtype=bool)
+    first, last = _runs(joined)
+    count = last - first + 1
+    rows = _ranges(first, count)
+    in_run[rows] = True
+    # polynomial blocks: the whole run (COMPCAD, COMPSURF) or chunks of MAX_GROUP_BLOCKS
+    run_of = np.repeat(np.arange(len(first)), count)
+    rank = rows - np.repeat(first, count)
+    chunked = ~np.isin(path.compressor[rows], (COMPCAD, COMPSURF))
+    group_key = np.where(chunked, rank // MAX_GROUP_BLOCKS, 0)
+    new_group = np.ones(len(rows), dtype=bool)
+    new_group[1:] = (run_of[1:] != run_of[:-1]) | (group_key[1:] != group_key[:-1])
+    group_id = np.cumsum(new_group) - 1
+    group_start = np.nonzero(new_group)[0]
+    group_len = np.add.reduceat(path.length_mm[rows], group_start)
+    group_last = np.append(group_start[1:], len(rows)) - 1
+    group_length = np.full(n, np.nan)
+    group_length[rows] = group_len[group_id]
+    group_feed = np.full(n, np.nan)
+    group_feed[rows] = path.feed_mm_s[rows[group_last]][group_id]
+
+    k_start, k_end = kappa_j[:-1], kappa_j[1:]
+    m_start = np.sqrt(np.einsum("ij,ij->i", k_start, k_start))
+    m_end = np.sqrt(np.einsum("ij,ij->i", k_end, k_end))
+    curvature = np.where(in_run, np.maximum(m_start, m_end), 0.0)
+    normal = np.where((m_end > m_start)[:, None], k_end, k_start)
+    normal = _unit(normal)
+    change = k_end - k_start
+    change = np.where(in_run, np.sqrt(np.einsum("ij,ij->i", change, change)), 0.0)
+    return Compression(in_run=in_run, joined=joined.copy(), group_length_mm=group_length,
+                       group_feed_mm_s=group_feed, curvature_1_mm=curvature, normal=normal,
+                       curvature_change_1_mm=change, deviation_mm=deviation, window_mm=window)
