@@ -40,6 +40,16 @@ def mikron_dict():
     (lambda d: d["axes"].pop("Y"), "axes.Y", "missing table"),
     (lambda d: d.pop("ncu"), "ncu", "missing table"),
     (lambda d: d["axes"].update(A={}), "axes.A", "unknown key"),
+    (lambda d: d["ncu"].update(corner_velocity_jump_factor=1.0), "ncu.corner_velocity_jump_factor",
+     "replaced by max_accel_ovl_factor in [axes.X], [axes.Y], [axes.Z] (MD32310"),
+    (lambda d: d["axes"]["X"].update(max_accel_ovl_factor=0.9), "axes.X.max_accel_ovl_factor",
+     "must be >= 1 (MD32310"),
+    (lambda d: d["axes"]["Z"].update(compress_pos_tol_mm=0), "axes.Z.compress_pos_tol_mm", "must be a positive"),
+    (lambda d: d["ncu"].update(smoothing_mode=1), "ncu.smoothing_mode", "MD20480: ncsim simulates the tens digit"),
+    (lambda d: d["ncu"].update(crit_spline_angle_deg=200), "ncu.crit_spline_angle_deg", "must be in [0, 180]"),
+    (lambda d: d["ncu"].update(ignore_ovl_factor_for_adis=1), "ncu.ignore_ovl_factor_for_adis", "must be true or false"),
+    (lambda d: d["cycle832"]["off"].update(path_mode="G61"), "cycle832.off.path_mode", "must be one of"),
+    (lambda d: d["cycle832"].update(medium={}), "cycle832.medium", "unknown key"),
 ])
 def test_each_bad_key_is_named(edit, key, message):
     data = mikron_dict()

@@ -57,6 +57,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from ncsim.geometry import line_directions
 from ncsim.machine import MachineSpec
@@ -78,6 +79,7 @@ class Compression:
     joined: np.ndarray             # bool: the junction lies inside a run (no corner)
     group_length_mm: np.ndarray    # length of the polynomial block the block belongs to
     group_feed_mm_s: np.ndarray    # its feed: the F of its last block (FNORM)
+    group_first: np.ndarray        # its first block (-1 outside the runs)
     curvature_1_mm: np.ndarray     # largest |kappa| of the fitted curve over the block
     normal: np.ndarray             # (n, 3) principal normal where |kappa| is largest
     curvature_change_1_mm: np.ndarray  # |kappa_vec(end) - kappa_vec(start)| over the block
@@ -186,13 +188,13 @@ def smooth_polyline(points, run_of, n_vert, w_floor, ctol, axis_tol):
     last = first + n_vert - 1
     d_start = _unit(points[first + 1] - points[first])
     d_end = _unit(points[last] - points[last - 1])
-    # padded runs: a straight extension of W_MAX before and after each run, in run-local
+    # padded runs: a straight extension of 2 W_MAX before and after each run, in run-local
     # coordinates (relative to the run's first padded point) to keep the sums small
     pos = np.arange(m) + 2 * run_of + 1                   # vertex -> padded index
     q = np.empty((m + 2 * n_runs, 3))
     q[pos] = points
-    q[first + 2 * np.arange(n_runs)] = points[first] - W_MAX_MM * d_start
-    q[last + 2 * np.arange(n_runs) + 2] = points[last] + W_MAX_MM * d_end
+    q[first + 2 * np.arange(n_runs)] = points[first] - 2.0 * W_MAX_MM * d_start
+    q[last + 2 * np.arange(n_runs) + 2] = points[last] + 2.0 * W_MAX_MM * d_end
     padded_run = np.repeat(np.arange(n_runs), n_vert + 2)
     run_first = first + 2 * np.arange(n_runs)             # padded index of each run's first point
     anchor = q[run_first]
@@ -213,46 +215,115 @@ def smooth_polyline(points, run_of, n_vert, w_floor, ctol, axis_tol):
     c_j[crossing] = 0.0
     j_pts = _segmented_cumsum(c_j, crossing)
 
-    def evaluate(sq):
-        """Q, I, J of the padded polyline at arc lengths ``sq`` (inside a run)."""
-        k = np.clip(np.searchsorted(s, sq, side="right") - 1, 0, len(seg) - 1)
-        tau = (sq - s[k])[:, None]
-        d = seg[k] * inv_len[k][:, None]
-        qv = q[k] + d * tau
-        iv = i_pts[k] + q[k] * tau + d * (tau * tau / 2.0)
-        jv = j_pts[k] + i_pts[k] * tau + q[k] * (tau * tau / 2.0) + d * (tau ** 3 / 6.0)
-        return qv, iv, jv
-
-    s_v = s[pos]
-    q_v, i_v, j_v = q[pos], i_pts[pos], j_pts[pos]
-    kappa = np.zeros((m, 3))
-    deviation = np.zeros((m, 3))
-    window = np.zeros(m)
-    ok = np.zeros(m, dtype=bool)
-    todo = np.arange(m)
-    use_ctol = np.isfinite(ctol)
-    w = W_MAX_MM
-    for level in range(W_LEVELS):
-        if todo.size == 0:
-            break
-        lowest = level == W_LEVELS - 1
-        qp, ip, jp = evaluate(s_v[todo] + w)
-        qm, im, jm = evaluate(s_v[todo] - w)
-        dev = (jp - 2.0 * j_v[todo] + jm) / (w * w) - q_v[todo]
-        within = np.where(use_ctol[todo], np.sqrt(np.einsum("ij,ij->i", dev, dev)) <= ctol[todo],
-                          np.all(np.abs(dev) <= axis_tol, axis=1))
-        at_floor = (w * 0.5 < w_floor[todo]) | lowest      # the next W would be too short
-        take = within | at_floor
-        sel = todo[take]
-        d1 = (ip[take] - 2.0 * i_v[sel] + im[take]) / (w * w)
-        d2 = (qp[take] - 2.0 * q_v[sel] + qm[take]) / (w * w)
-        kappa[sel] = _curvature(d1, d2)
-        deviation[sel] = dev[take]
-        window[sel] = w
-        ok[sel] = within[take]
-        todo = todo[~take]
-        w *= 0.5
+    widths = W_MAX_MM * 0.5 ** np.arange(W_LEVELS)
+    # the narrowest level a point may use: W >= its adjoining blocks (else it is a corner)
+    last_level = np.clip(np.searchsorted(-widths, -w_floor, side="right") - 1, 0, W_LEVELS - 1)
+    run_lo = run_first[run_of]                            # padded point range of each vertex's run
+    run_hi = run_lo + n_vert[run_of] + 1
+    kappa = np.empty((m, 3))
+    deviation = np.empty((m, 3))
+    window = np.empty(m)
+    ok = np.empty(m, dtype=np.bool_)
+    _fit_kernel(s, q, i_pts, j_pts, seg * inv_len[:, None], pos, run_lo, run_hi, widths,
+                last_level, np.asarray(ctol, dtype=np.float64),
+                np.asarray(axis_tol, dtype=np.float64), kappa, deviation, window, ok)
     return dict(kappa=kappa, deviation=deviation, window=window, ok=ok)
+
+
+@njit(cache=True, nogil=True)
+def _segment_at(s, lo, hi, x):
+    """The segment k in [lo, hi) of the points ``s`` with s[k] <= x (binary search)."""
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if s[mid] <= x:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True, nogil=True)
+def _window_sums(s, q, i_pts, j_pts, unit, lo, hi, sv, w, out_q, out_i, out_j):
+    """Q, I and J of the padded polyline at sv + w plus at sv - w (sums per axis)."""
+    for c in range(3):
+        out_q[c] = 0.0
+        out_i[c] = 0.0
+        out_j[c] = 0.0
+    for sign in (1.0, -1.0):
+        x = sv + sign * w
+        k = _segment_at(s, lo, hi, x)
+        tau = x - s[k]
+        for c in range(3):
+            d = unit[k, c]
+            out_q[c] += q[k, c] + d * tau
+            out_i[c] += i_pts[k, c] + tau * (q[k, c] + d * tau / 2.0)
+            out_j[c] += j_pts[k, c] + tau * (i_pts[k, c] + tau * (q[k, c] / 2.0 + d * tau / 6.0))
+
+
+@njit(cache=True, nogil=True)
+def _smoothed(s, q, i_pts, j_pts, unit, lo, hi, p, w, pos_out, d1_out, d2_out, tmp_q, tmp_i,
+              tmp_j):
+    """The smoothed point, its first and its second derivative at padded point ``p`` for the
+    kernel (4/3) K_W - (1/3) K_2W (triangles of half-width W and 2 W)."""
+    sv = s[p]
+    for c in range(3):
+        pos_out[c] = 0.0
+        d1_out[c] = 0.0
+        d2_out[c] = 0.0
+    for width, weight in ((w, 4.0 / 3.0), (2.0 * w, -1.0 / 3.0)):
+        _window_sums(s, q, i_pts, j_pts, unit, lo, hi, sv, width, tmp_q, tmp_i, tmp_j)
+        scale = weight / (width * width)
+        for c in range(3):
+            pos_out[c] += scale * (tmp_j[c] - 2.0 * j_pts[p, c])
+            d1_out[c] += scale * (tmp_i[c] - 2.0 * i_pts[p, c])
+            d2_out[c] += scale * (tmp_q[c] - 2.0 * q[p, c])
+
+
+@njit(cache=True, nogil=True)
+def _fit_kernel(s, q, i_pts, j_pts, unit, pos, run_lo, run_hi, widths, last_level, ctol,
+                axis_tol, kappa, deviation, window, ok):
+    """Per vertex: bisection over the levels for the widest W whose smoothed point stays
+    within the tolerance (the levels from ``last_level`` on are too narrow), then the curvature
+    vector of the smoothed curve there (:func:`smooth_polyline`)."""
+    tmp_q = np.empty(3)
+    tmp_i = np.empty(3)
+    tmp_j = np.empty(3)
+    sm = np.empty(3)
+    d1 = np.empty(3)
+    d2 = np.empty(3)
+    for v in range(len(pos)):
+        p = pos[v]
+        lo_pt, hi_pt = run_lo[v], run_hi[v]
+        lo, hi = 0, last_level[v] + 1
+        while lo < hi:
+            mid = (lo + hi) // 2
+            _smoothed(s, q, i_pts, j_pts, unit, lo_pt, hi_pt, p, widths[mid], sm, d1, d2,
+                      tmp_q, tmp_i, tmp_j)
+            dist2 = 0.0
+            inside = True
+            for c in range(3):
+                dev = sm[c] - q[p, c]
+                dist2 += dev * dev
+                if abs(dev) > axis_tol[c]:
+                    inside = False
+            if not np.isnan(ctol[v]):
+                inside = dist2 <= ctol[v] * ctol[v]
+            if inside:
+                hi = mid
+            else:
+                lo = mid + 1
+        ok[v] = lo <= last_level[v]
+        w = widths[min(lo, last_level[v])]
+        window[v] = w
+        _smoothed(s, q, i_pts, j_pts, unit, lo_pt, hi_pt, p, w, sm, d1, d2, tmp_q, tmp_i, tmp_j)
+        d1_2 = 0.0
+        d12 = 0.0
+        for c in range(3):
+            deviation[v, c] = sm[c] - q[p, c]
+            d1_2 += d1[c] * d1[c]
+            d12 += d1[c] * d2[c]
+        for c in range(3):      # (d2 - (d2.T) T) / |d1|^2, T = d1 / |d1|
+            kappa[v, c] = (d2[c] - d12 / d1_2 * d1[c]) / d1_2 if d1_2 > 0.0 else 0.0
 
 
 def _segmented_cumsum(c: np.ndarray, reset: np.ndarray) -> np.ndarray:
@@ -276,15 +347,6 @@ def _segmented_cumsum(c: np.ndarray, reset: np.ndarray) -> np.ndarray:
 def _unit(v: np.ndarray) -> np.ndarray:
     norm = np.sqrt(np.einsum("ij,ij->i", v, v))
     return np.divide(v, norm[:, None], out=np.zeros_like(v), where=norm[:, None] > 0.0)
-
-
-def _curvature(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
-    """Curvature vector of a curve with derivatives d1, d2 along any parameter:
-    (d2 - (d2.T) T) / |d1|^2 with T = d1 / |d1|."""
-    speed2 = np.einsum("ij,ij->i", d1, d1)
-    t = _unit(d1)
-    normal_part = d2 - np.einsum("ij,ij->i", d2, t)[:, None] * t
-    return np.divide(normal_part, speed2[:, None], out=np.zeros_like(d2), where=speed2[:, None] > 0.0)
 
 
 def _per_block(path: Path, joined: np.ndarray, fit: dict) -> Compression:
@@ -317,6 +379,8 @@ def _per_block(path: Path, joined: np.ndarray, fit: dict) -> Compression:
     group_length[rows] = group_len[group_id]
     group_feed = np.full(n, np.nan)
     group_feed[rows] = path.feed_mm_s[rows[group_last]][group_id]
+    group_first = np.full(n, -1, dtype=np.int64)
+    group_first[rows] = rows[group_start][group_id]
 
     k_start, k_end = kappa_j[:-1], kappa_j[1:]
     m_start = np.sqrt(np.einsum("ij,ij->i", k_start, k_start))
@@ -327,5 +391,5 @@ def _per_block(path: Path, joined: np.ndarray, fit: dict) -> Compression:
     change = k_end - k_start
     change = np.where(in_run, np.sqrt(np.einsum("ij,ij->i", change, change)), 0.0)
     return Compression(in_run=in_run, joined=joined.copy(), group_length_mm=group_length,
-                       group_feed_mm_s=group_feed, curvature_1_mm=curvature, normal=normal,
+                       group_feed_mm_s=group_feed, group_first=group_first, curvature_1_mm=curvature, normal=normal,
                        curvature_change_1_mm=change, deviation_mm=deviation, window_mm=window)

@@ -12,12 +12,14 @@ programmed geometry cannot say:
 
 * a compressed block: eq. 6 on its polynomial block (``group_length_mm / t_cy``), the F of the
   polynomial's last block (FNORM), the curvature limits of the fitted curve (eq. 2/8 with the
-  normal-acceleration share, eq. 4/9, eq. 11) and its curvature change over the block (eq. 13
+  normal-acceleration share, eq. 11, and eq. 4/9 with the axis jerk where it exceeds J_tcurv,
+  as the paper's arcs take V_Jt at alpha_c) and its curvature change over the block (eq. 13
   spread, TRANSITION); junctions inside a run are not corners;
 * a rounding block: the closed-form feed of the clothoid rounding; its two junctions are
   smooth (no corner, no eq. 13 jump: the rounding is curvature-continuous);
 * a corner rounded in time only (an arc on one side): its crossing feed is the rounding's;
-* a G645 transition: the spread crossing feed replaces eq. 13.
+* a G645 transition: the spread crossing feed replaces eq. 13;
+* the look-ahead counts NC blocks: the rows of one polynomial block share ``nc_block``.
 
 Without compressor and rounding modes the path and the limits are returned unchanged.
 """
@@ -88,9 +90,14 @@ class Prepared:
             tr = r.transition_row
             better = r.transition_feed_mm_s > jcap[tr]
             jcap[tr[better]] = r.transition_feed_mm_s[better]
+        nc_block = None
+        if self.compression is not None:   # the rows of one polynomial block are one NC block
+            nc_block = np.arange(n_new)
+            grouped = np.nonzero(self.compression.group_first >= 0)[0]
+            nc_block[row_of[grouped]] = row_of[self.compression.group_first[grouped]]
         return replace(limits, cap_mm_s=cap, cap_limit=cap_limit, accel_mm_s2=accel,
                        candidates=cand, junction_cap_mm_s=jcap, junction_limit=jlimit,
-                       path=self.path)
+                       path=self.path, nc_block=nc_block)
 
     def _apply_compression(self, row_of, machine, options, cap, cap_limit, accel, cand, jcap,
                            jlimit) -> None:
@@ -112,7 +119,10 @@ class Prepared:
                 ncu.tangential_jerk_mm_s3, radius)
         j_t = kin.axis_tangential_jerk_limit_mm_s3(u, machine.max_jerk_mm_s3)
         if options.axis_jerk_setpoint:
-            cand["axis_jerk"][rows] = kin.tangential_jerk_feed_limit_mm_s(j_t, radius)
+            # as on the paper's arcs, where the set point is taken where the axes carry J_tcurv
+            # (alpha_c, §5.2.4: R 30 holds 10.53 m/min above the least V_Jt of 9.9)
+            j_set = np.maximum(j_t, ncu.tangential_jerk_mm_s3) if options.ncu_path_jerk else j_t
+            cand["axis_jerk"][rows] = kin.tangential_jerk_feed_limit_mm_s(j_set, radius)
         a_n = ncu.normal_accel_share * kin.axis_normal_accel_limit_mm_s2(normal, machine.max_accel_mm_s2)
         cand["axis_accel"][rows] = kin.normal_accel_feed_limit_mm_s(radius, a_n)
         value, which = kin.feed_set_point_mm_s(*[cand[key][rows] for key, _ in _CANDIDATES])

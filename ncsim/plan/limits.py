@@ -146,6 +146,8 @@ class PathLimits:
     junction_dwell_s: np.ndarray   # time standing still at the junction
     # -- the path these limits belong to: the programmed one prepared by ncsim.plan.hsm --------
     path: Path | None = None       # (rounding blocks inserted); None: the caller's path
+    nc_block: np.ndarray | None = None  # NC block of each row (compressed rows share one), for
+                                        # the look-ahead; None: every row is a block
 
     def __post_init__(self) -> None:
         for name in ("cap_mm_s", "cap_limit", "jerk_mm_s3", "accel_mm_s2", "alpha_c_rad",

@@ -37,7 +37,8 @@ reduction never breaks a backward condition, since a raised ramp end only helps 
 The passes are a sequential recurrence, compiled (``_kernels.knot_feeds``).
 
 Look-ahead (840D "dynamic look-ahead", paper §3.2): while a block runs, the NC knows only
-``lookahead_blocks`` blocks ahead and must be able to stop at the end of the last one. Block
+``lookahead_blocks`` blocks ahead and must be able to stop at the end of the last one (NC
+blocks: the rows the compressor joins into one polynomial count once, ``PathLimits.nc_block``). Block
 ``k`` therefore gets the cap ``ramp_reach(0, S[k + D + 1] - S[k])`` and its end junction
 ``ramp_reach(0, S[k + D + 1] - S[k + 1])``: with too short a look-ahead the feed rises inside
 each block and falls back at its end -- the sawtooth of a starved look-ahead. Beyond feeds,
@@ -97,9 +98,10 @@ def plan(path: Path, machine: MachineSpec, options: ModelOptions = FULL_MODEL, *
         return _empty_motion(path, machine, options, dwell)
 
     cap = _transparent_zero_length(cap, length)
+    nc_block = getattr(limits, "nc_block", None)
     if options.lookahead:
         _apply_lookahead(cap, cap_limit, jcap, jlimit, s_junction, jerk, accel,
-                         machine.ncu.lookahead_blocks)
+                         machine.ncu.lookahead_blocks, nc_block)
 
     # crossing cap of every junction, including the set points of the blocks it joins
     p = jcap.copy()
@@ -115,7 +117,7 @@ def plan(path: Path, machine: MachineSpec, options: ModelOptions = FULL_MODEL, *
     lookahead_end = None
     if options.lookahead:
         # junction k is crossed while block k-1 runs: blocks up to k-1+D are prepared
-        lookahead_end = np.minimum(np.arange(n + 1) + machine.ncu.lookahead_blocks, n)
+        lookahead_end = _prepared_end(n, machine.ncu.lookahead_blocks, nc_block)
     sol, p = _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end)
     knots = sol["knots"]
     pieces, t_arrive, v_j, a_j = _pieces_and_junctions(sol, s_junction, knot_reason,
@@ -162,23 +164,54 @@ def _transparent_zero_length(cap: np.ndarray, length: np.ndarray) -> np.ndarray:
     return np.where(zero, filled, out)
 
 
-def _apply_lookahead(cap, cap_limit, jcap, jlimit, s_junction, jerk, accel, depth) -> None:
+def _nc_blocks(nc_block, n):
+    """Rows -> NC blocks: the index of each row's NC block and the first row of every NC block
+    (plus n). Without ``nc_block`` every row is an NC block."""
+    if nc_block is None:
+        return None, None
+    first = np.flatnonzero(np.concatenate([[True], nc_block[1:] != nc_block[:-1]]))
+    index = np.cumsum(np.concatenate([[True], nc_block[1:] != nc_block[:-1]])) - 1
+    return index, np.append(first, n)
+
+
+def _prepared_end(n, depth, nc_block):
+    """Per junction k (crossed while row k-1 runs): the junction at the end of the prepared
+    blocks -- D NC blocks after the one of row k-1."""
+    index, first = _nc_blocks(nc_block, n)
+    if index is None:
+        return np.minimum(np.arange(n + 1) + depth, n)
+    before = np.concatenate([[-1], index])          # NC block of row k-1 (-1 at the start)
+    return first[np.minimum(before + depth + 1, len(first) - 1)]
+
+
+def _apply_lookahead(cap, cap_limit, jcap, jlimit, s_junction, jerk, accel, depth,
+                     nc_block=None) -> None:
     """Stop assumed at the end of the last prepared block (840D dynamic look-ahead).
 
     Block k sees blocks k+1..k+depth: it must be able to stop at junction k+depth+1. Its
     cap is the feed one ramp can brake to rest from within that window, measured from the
     block start; its end junction gets the same measured from the junction. Windows that
     reach the end of the path add nothing (the real stop is planned anyway).
+
+    The window counts NC blocks: rows that the compressor joins into one polynomial block
+    share an ``nc_block`` (``PathLimits.nc_block``) and count once; the ramp limits are then
+    the least over the whole NC blocks of the window.
     """
     n = len(cap)
     k = np.arange(n)
-    end = k + depth + 1
+    index, first = _nc_blocks(nc_block, n)
+    if index is None:
+        end = k + depth + 1
+        # window minimum of the ramp limits over blocks k..k+depth
+        j_win = window_min(jerk, depth + 1)
+        a_win = window_min(accel, depth + 1)
+    else:
+        end = first[np.minimum(index + depth + 1, len(first) - 1)]
+        j_win = window_min(np.minimum.reduceat(jerk, first[:-1]), depth + 1)[index]
+        a_win = window_min(np.minimum.reduceat(accel, first[:-1]), depth + 1)[index]
     cut = end < n
     if not np.any(cut):
         return
-    # window minimum of the ramp limits over blocks k..k+depth
-    j_win = window_min(jerk, depth + 1)
-    a_win = window_min(accel, depth + 1)
     kk, e = k[cut], end[cut]
     zero = np.zeros(len(kk))
     jw, aw = np.ascontiguousarray(j_win[cut]), np.ascontiguousarray(a_win[cut])
