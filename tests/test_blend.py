@@ -241,6 +241,26 @@ def test_g645_smooths_tangential_curvature_jumps(m12):
     assert path_limits(g642, m12).junction_cap_mm_s[1] == pytest.approx(eq13)
 
 
+def test_corner_with_an_arc_is_rounded_in_time_only(m12):
+    """A line meeting an arc at an angle: the crossing feed is the rounding's, the geometry stays
+    (the Path has no curvature-continuous element to put there)."""
+    radius, phi = 5.0, math.radians(60)
+    t2 = np.array([math.cos(phi), math.sin(phi), 0.0])
+    start = np.array([20.0, 0.0, 0.0])
+    center = start + radius * np.array([-t2[1], t2[0], 0.0])      # CCW arc leaving along t2
+    end = center + radius * (start - center) @ np.array([[0, 1, 0], [-1, 0, 0], [0, 0, 1.0]])
+    pb = PathBuilder()
+    pb.add_line([0, 0, 0], start, line=1, feed_mm_s=100.0, cp_mode=642, accel_mode=SOFT,
+                ctol_mm=0.05, **LINE_COLS)
+    pb.add_arc(start, end, center, [0, 0, 1], radius, math.pi / 2, line=2, feed_mm_s=100.0,
+               cp_mode=642, accel_mode=SOFT, ctol_mm=0.05)
+    lim = path_limits(pb.build(), m12)
+    v, _, _ = expected_rounding(phi, 0.05)
+    assert lim.path.n == 2
+    assert lim.junction_cap_mm_s[1] == pytest.approx(v, rel=1e-4)
+    assert lim.junction_limit[1] == Limit.CORNER
+
+
 def program(mode_words: str) -> str:
     """A zig-zag of 20 mm lines with 60 and 120 degree corners."""
     lines = [f"G17 G90 G71 {mode_words}", "G1 X0 Y0 F6000"]

@@ -9,10 +9,13 @@ Guide Fundamentals, "Fundamental principles of NC programming"):
    to 5); reject unknown words and two G functions of one group (:mod:`ncsim.nc.words`);
 2. modal G functions (settable frame, units, plane, G90/G91, feed type, G60/G64.., G601..);
 3. frame instructions (TRANS ROT SCALE MIRROR and their A-forms; the block's X Y Z are their
-   arguments), F S T D H M, ADIS/ADISPOS, SOFT/BRISK/DRIVE, FFWON/FFWOF, STOPRE, recorded
-   settings (COMP*, DYN*) (steps 2 and 3: :mod:`ncsim.nc.settings`);
+   arguments), F S T D H M, ADIS/ADISPOS, CTOL/OTOL, SOFT/BRISK/DRIVE, FFWON/FFWOF, STOPRE,
+   the compressor (COMPON..COMPOF), recorded settings (DYN*) (steps 2 and 3:
+   :mod:`ncsim.nc.settings`);
 4. the motion (G0 G1 G2 G3 CIP CT) or the dwell (G4) (:mod:`ncsim.nc.moves`), then subprogram
-   calls and cycles (CYCLE832, MSG, ...), then M17/RET and M2/M30 (:mod:`ncsim.nc.calls`).
+   calls and cycles (CYCLE832 -- which switches path mode, compressor, SOFT, FFWON and CTOL
+   per the machine file's ``[cycle832]`` table --, MSG, ...), then M17/RET and M2/M30
+   (:mod:`ncsim.nc.calls`).
 
 840D semantics implemented: G70/G71 scale geometry only (feeds stay mm/min), G700/G710 scale
 geometry and feed; X=AC(..)/X=IC(..) per axis; I J K incremental to the start point unless

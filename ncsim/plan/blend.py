@@ -28,6 +28,8 @@ tolerances (G642/G643)", "G645"; Job Planning "CTOL, OTOL, ATOL"):
   cycle" (eq. 6 for the rounding block: d / t_cy, d its rounding distance);
 * in the smoothing range the axes run with jerk limitation under SOFT, without it under BRISK
   (MD20480, ten-thousands digit 0);
+* G0 blocks are rounded with the same tolerance (the G0 tolerance factor MD20560 and
+  CTOLG0/STOLF are not simulated);
 * G645 also smooths tangential transitions with a curvature jump, within MD33120
   ``$MA_PATH_TRANS_POS_TOL``; G644 (rounding with the greatest possible dynamics, MD20480
   thousands digit) is simulated as G642 (the interpreter warns).

@@ -28,29 +28,39 @@ points), but each run is *planned* as the smooth curve the compressor would make
   fitted smooth curve through the points, and its change along a block is crossed like a
   transition spread over the block (eq. 13 generalised,
   :func:`~ncsim.plan.kinematics.curvature_change_feed_mm_s`);
-* inside a run there are no corners (the junctions are smooth).
+* inside a run there are no corners (the junctions are smooth); COMPON's polynomials join
+  with continuous velocity only, but the curvature jumps at their joins are not modelled
+  (COMPON is planned like COMPCURV, with its groups of 10 blocks).
 
-The fitted curve. Each run is smoothed with a triangular kernel of half-width W in arc length,
-i.e. twice a moving average. With P(s) the polyline, its first and second antiderivatives I
-and J (piecewise polynomial, exact) give in closed form::
+The fitted curve. Each run is smoothed by a kernel in arc length made of two triangles,
+K = (4/3) K_W - (1/3) K_2W (K_a: the triangle of half-width a and area 1). A triangle alone
+(a moving average taken twice) would pull a circle of radius R inward by W^2 / (12 R); the
+combination (Richardson's extrapolation) has no second moment, so curves keep their curvature
+up to terms in W^4 while noise in the points (CAM output is rounded to 1 um) is averaged out.
+With P(s) the polyline and I, J its first and second antiderivatives (piecewise polynomial,
+exact), each triangle is a closed form::
 
-    P_W(s)   = (J(s + W) - 2 J(s) + J(s - W)) / W^2      the smoothed point
-    P_W'(s)  = (I(s + W) - 2 I(s) + I(s - W)) / W^2
-    P_W''(s) = (P(s + W) - 2 P(s) + P(s - W)) / W^2      its curvature vector, once normalised
+    P_a(s)   = (J(s + a) - 2 J(s) + J(s - a)) / a^2      the smoothed point
+    P_a'(s)  = (I(s + a) - 2 I(s) + I(s - a)) / a^2
+    P_a''(s) = (P(s + a) - 2 P(s) + P(s - a)) / a^2      (the curvature, once normalised)
 
-The curvature of a kink of angle theta smoothed this way is theta K(s): a symmetric clothoid
-pair of length 2 W, the same curvature-continuous curve as the rounding of
-:mod:`ncsim.plan.blend`. A circle keeps its curvature for any W, and noise of amplitude d in
-the points gives curvature noise of about 2 d / W^2. At every programmed point W is the
-largest of W_MAX, W_MAX/2, ... for which the smoothed point stays within the tolerance of the
-programmed one (each axis within MD33100, or the distance within CTOL), so the deviation of
-the planned curve from the programmed points never exceeds the tolerance
-(``tests/test_compressor.py`` checks it). When no W at least as long as the point's adjoining
-blocks passes, the point is a corner the compressor keeps: the run is split there and the
-corner is crossed as a corner (G64 jump or a G642 rounding block). Runs are extended by
-straight lines along their end directions so that the window never leaves the run.
+A kink of angle theta becomes a curvature profile theta K(s): continuous and piecewise linear
+(a clothoid-like rounding, like the corner rounding of :mod:`ncsim.plan.blend`), whose point
+next to the kink lies theta W / 9 from it. At every programmed point W is searched over
+W_MAX, W_MAX/2, ... (starting from the neighbour's) as the widest level for which the
+smoothed point stays within the tolerance of the programmed one (each axis within MD33100,
+or the distance within CTOL), so the deviation of the planned curve from the programmed points
+never exceeds the tolerance (``tests/test_compressor.py`` checks it by integrating the kernel
+numerically). When no W at least as long as the point's adjoining blocks passes, the point
+is a corner the compressor keeps: the run is split there and the corner is crossed as a
+corner (G64 jump or a G642 rounding block). Runs are extended by straight lines along their
+end directions so that the kernel never leaves the run. The search and the closed forms run
+in a compiled kernel (numba), the rest is numpy over all runs at once.
 
-Everything is vectorised over all runs at once (linear in the number of blocks).
+Look-ahead: the rows of one polynomial block count as one block of the 840D's look-ahead
+(``PathLimits.nc_block``, :mod:`ncsim.plan.lookahead`).
+
+Everything is linear in the number of blocks.
 """
 from __future__ import annotations
 
@@ -64,7 +74,7 @@ from ncsim.machine import MachineSpec
 from ncsim.path import COMPCAD, COMPSURF, LINE, Path
 from ncsim.plan.kinematics import deflection_angle_rad
 
-W_MAX_MM = 8.0             # widest smoothing half-width tried
+W_MAX_MM = 8.0             # widest smoothing half-width W tried (the kernel reaches 2 W)
 W_LEVELS = 12              # W_MAX, W_MAX/2, ... W_MAX/2^11 (4 um)
 MAX_GROUP_BLOCKS = 10      # COMPON/COMPCURV: blocks per polynomial (840D B1)
 _SPLIT_ROUNDS = 4          # refits after splitting runs at kept corners
@@ -175,7 +185,7 @@ def _ranges(start: np.ndarray, count: np.ndarray) -> np.ndarray:
 
 
 def smooth_polyline(points, run_of, n_vert, w_floor, ctol, axis_tol):
-    """Triangular-kernel smoothing of polylines (module docstring), all runs at once.
+    """The smoothing of the module docstring for polylines, all runs at once.
 
     ``points`` (m, 3) are the vertices of the runs one after the other (``n_vert`` per run,
     ``run_of`` the run of each). Returns per vertex the curvature vector ``kappa`` (1/mm), the
@@ -280,42 +290,67 @@ def _smoothed(s, q, i_pts, j_pts, unit, lo, hi, p, w, pos_out, d1_out, d2_out, t
 
 
 @njit(cache=True, nogil=True)
+def _within(s, q, i_pts, j_pts, unit, lo, hi, p, w, ctol, axis_tol, sm, d1, d2, tmp_q, tmp_i,
+            tmp_j):
+    """Whether the smoothed point at half-width ``w`` lies within the tolerance (CTOL when not
+    NaN, else every axis within its tolerance); fills sm, d1, d2."""
+    _smoothed(s, q, i_pts, j_pts, unit, lo, hi, p, w, sm, d1, d2, tmp_q, tmp_i, tmp_j)
+    dist2 = 0.0
+    inside = True
+    for c in range(3):
+        dev = sm[c] - q[p, c]
+        dist2 += dev * dev
+        if abs(dev) > axis_tol[c]:
+            inside = False
+    if not np.isnan(ctol):
+        inside = dist2 <= ctol * ctol
+    return inside
+
+
+@njit(cache=True, nogil=True)
 def _fit_kernel(s, q, i_pts, j_pts, unit, pos, run_lo, run_hi, widths, last_level, ctol,
                 axis_tol, kappa, deviation, window, ok):
-    """Per vertex: bisection over the levels for the widest W whose smoothed point stays
-    within the tolerance (the levels from ``last_level`` on are too narrow), then the curvature
-    vector of the smoothed curve there (:func:`smooth_polyline`)."""
+    """Per vertex: the widest level W whose smoothed point stays within the tolerance (the
+    levels after ``last_level`` are too narrow), then the curvature vector of the smoothed
+    curve there (:func:`smooth_polyline`). The search starts from the previous vertex's level
+    (neighbours mostly share it): widen while the next wider level passes, else narrow until
+    one passes; the level taken always passed (or is the narrowest allowed, ``ok`` False)."""
     tmp_q = np.empty(3)
     tmp_i = np.empty(3)
     tmp_j = np.empty(3)
     sm = np.empty(3)
     d1 = np.empty(3)
     d2 = np.empty(3)
+    keep = np.empty(9)
+    prev = 0
     for v in range(len(pos)):
         p = pos[v]
         lo_pt, hi_pt = run_lo[v], run_hi[v]
-        lo, hi = 0, last_level[v] + 1
-        while lo < hi:
-            mid = (lo + hi) // 2
-            _smoothed(s, q, i_pts, j_pts, unit, lo_pt, hi_pt, p, widths[mid], sm, d1, d2,
-                      tmp_q, tmp_i, tmp_j)
-            dist2 = 0.0
-            inside = True
+        if v == 0 or run_lo[v] != run_lo[v - 1]:
+            prev = 0
+        last = last_level[v]
+        level = min(prev, last)
+        passed = _within(s, q, i_pts, j_pts, unit, lo_pt, hi_pt, p, widths[level], ctol[v],
+                         axis_tol, sm, d1, d2, tmp_q, tmp_i, tmp_j)
+        if passed:
             for c in range(3):
-                dev = sm[c] - q[p, c]
-                dist2 += dev * dev
-                if abs(dev) > axis_tol[c]:
-                    inside = False
-            if not np.isnan(ctol[v]):
-                inside = dist2 <= ctol[v] * ctol[v]
-            if inside:
-                hi = mid
-            else:
-                lo = mid + 1
-        ok[v] = lo <= last_level[v]
-        w = widths[min(lo, last_level[v])]
-        window[v] = w
-        _smoothed(s, q, i_pts, j_pts, unit, lo_pt, hi_pt, p, w, sm, d1, d2, tmp_q, tmp_i, tmp_j)
+                keep[c], keep[3 + c], keep[6 + c] = sm[c], d1[c], d2[c]
+            while level > 0 and _within(s, q, i_pts, j_pts, unit, lo_pt, hi_pt, p,
+                                        widths[level - 1], ctol[v], axis_tol, sm, d1, d2,
+                                        tmp_q, tmp_i, tmp_j):
+                level -= 1
+                for c in range(3):
+                    keep[c], keep[3 + c], keep[6 + c] = sm[c], d1[c], d2[c]
+            for c in range(3):
+                sm[c], d1[c], d2[c] = keep[c], keep[3 + c], keep[6 + c]
+        else:
+            while level < last and not passed:
+                level += 1
+                passed = _within(s, q, i_pts, j_pts, unit, lo_pt, hi_pt, p, widths[level],
+                                 ctol[v], axis_tol, sm, d1, d2, tmp_q, tmp_i, tmp_j)
+        ok[v] = passed
+        prev = level
+        window[v] = widths[level]
         d1_2 = 0.0
         d12 = 0.0
         for c in range(3):
