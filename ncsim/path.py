@@ -20,8 +20,9 @@ modal columns say how the NC treats the segment and its junctions:
 * ``stop_window``: the exact-stop criterion in force (601 fine, 602 coarse, 603 IPO end);
 * ``cp_mode`` / ``adis_mm``: continuous-path mode (60, 64, 641, 642, ...) and its ADIS;
 * ``compressor``: the NC block compressor in force for the block (COMPOF 0, COMPON 1, COMPCURV
-  2, COMPCAD 3, COMPSURF 4), 0 also when the block is not of the simple form the compressor
-  takes (``N.. G1 X.. Y.. Z.. F..``, SINUMERIK Job Planning "NC block compression");
+  2, COMPCAD 3, COMPSURF 4; 0 for arcs), negated when another instruction than the simple
+  ``N.. G1 X.. Y.. Z.. F..`` came since the last segment (SINUMERIK Job Planning "NC block
+  compression": it interrupts the compressor, a new run starts with this block);
 * ``ctol_mm``: the programmed contour tolerance in force (CTOL= or CYCLE832), NaN when none
   (the machine data MD33100/SD42465 apply).
 """

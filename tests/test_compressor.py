@@ -179,8 +179,11 @@ def test_interrupters_end_a_run(mikron_module):
     straight = "".join(f"X{0.2 * i:.1f}\n" for i in range(1, 11))
     path, c = run_breaks(straight)
     assert c.joined[1:path.n].all()
-    for interrupter in ("M8\n", "X2.2 S1000\n", "G0 X2.4\nG1 X2.6\n", "X30\n", "COMPOF\n",
-                        "G2 X2.4 Y0 I0.2 J0\n"):
+    # R parameters and CTOL between the blocks do not interrupt it
+    path, c = run_breaks(straight[:20] + "R1=0.5\nCTOL=0.02\n" + straight[20:])
+    assert c.joined[1:path.n].all()
+    for interrupter in ("M8\n", "X2.2 S1000\n", "S1000\n", "T2\n", "G0 X2.4\nG1 X2.6\n", "X30\n",
+                        "COMPOF\n", "G2 X2.4 Y0 I0.2 J0\n"):
         body = straight + interrupter + "G1 " + "".join(f"X{40 + 0.2 * i:.1f}\n" for i in range(1, 6))
         path, c = run_breaks(body)
         first = int(np.argmax(path.line > 12))        # the first segment after the straight run

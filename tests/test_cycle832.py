@@ -45,7 +45,7 @@ def test_cycle832_finish_plans_as_its_settings_written_by_hand(mikron):
     # and it is what the table says, not the reset state
     p = cycle.interpreted.path
     assert set(p.cp_mode) == {642} and p.accel_mode[0] == SOFT and p.ffw.all()
-    assert p.compressor[1] == COMPCAD and np.all(p.ctol_mm == 0.01)
+    assert p.compressor[0] == -COMPCAD and p.compressor[1] == COMPCAD and np.all(p.ctol_mm == 0.01)
     reset = simulate("r.mpf", mikron, text=head + BODY)
     assert reset.interpreted.path.exact_stop.all() and reset.cycle_time_s > 2 * cycle.cycle_time_s
 
@@ -84,7 +84,8 @@ def test_deselection_returns_to_the_reset_values(mikron):
     for off in ("CYCLE832()", "CYCLE832(0.02,_OFF,1)", "CYCLE832(0.02,0,1)"):
         r = interpret_text(f"CYCLE832(0.02,1,1)\nG1 X1 F100\n{off}\nG1 X2\n", "t.mpf", mikron)
         first, after = r.path.segment(0), r.path.segment(1)
-        assert (first.cp_mode, first.compressor, first.accel_mode, first.ffw) == (642, COMPCAD, SOFT, True)
+        # (the compressor's sign says a run starts there: CYCLE832 came just before)
+        assert (first.cp_mode, abs(first.compressor), first.accel_mode, first.ffw) == (642, COMPCAD, SOFT, True)
         assert (after.cp_mode, after.compressor, after.accel_mode, after.ffw) == (60, COMPOF, BRISK, False)
         assert np.isnan(after.ctol_mm) and after.exact_stop and after.stop_before   # SOFT -> BRISK
     # tolerance 0 deselects too (with a warning: a secondary source says so)
@@ -99,7 +100,7 @@ def test_the_table_comes_from_the_machine_file():
     r = interpret_text("G60 SOFT\nCYCLE832(0.05,_FINISH,1)\nG1 X1 F100\n", "t.mpf",
                        machine_from_dict(data))
     s = r.path.segment(0)
-    assert (s.cp_mode, s.compressor, s.accel_mode, s.ffw, s.ctol_mm) == (645, COMPCURV, BRISK, False, 0.05)
+    assert (s.cp_mode, abs(s.compressor), s.accel_mode, s.ffw, s.ctol_mm) == (645, COMPCURV, BRISK, False, 0.05)
     assert not any("no [cycle832] table" in w.message for w in r.warnings)
     # without the table: the usual CUST_832 values, said once
     del data["cycle832"]

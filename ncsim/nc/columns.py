@@ -157,16 +157,20 @@ class ColumnPath:
         stop[0] = st.pending_stop or (st.last_rapid is not None and st.last_rapid != bool(rapid[0]))
         dwell = np.zeros(k)
         dwell[0] = st.pending_dwell_s
+        compressor = np.where(cols["kind"] == ARC, 0, st.compressor).astype(np.int8)
+        if st.compress_break:      # an instruction before the run interrupted the compressor
+            compressor[0] = -compressor[0]
         self.state.out.extend(
             k, **cols, line=lines,
             file_index=fr.file_index, feed_mm_s=np.where(rapid, np.inf, feed), rapid=rapid,
             exact_stop=st.cp_mode == 60, stop_window=st.stop_window, cp_mode=st.cp_mode,
             adis_mm=np.where(rapid, st.adispos_mm, st.adis_mm), accel_mode=st.accel_mode,
             ffw=st.ffw, stop_before=stop, dwell_before_s=dwell,
-            compressor=np.where(cols["kind"] == ARC, 0, st.compressor), ctol_mm=st.ctol_mm)
+            compressor=compressor, ctol_mm=st.ctol_mm)
         last = k - 1
         st.pending_stop = False
         st.pending_dwell_s = 0.0
+        st.compress_break = False
         st.last_rapid = bool(rapid[-1])
         st.last_segment = (int(cols["kind"][last]), tuple(cols["start_mm"][last].tolist()),
                            tuple(cols["end_mm"][last].tolist()), tuple(cols["center_mm"][last].tolist()),

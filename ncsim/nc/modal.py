@@ -162,6 +162,8 @@ class ModalState:
     last_segment: tuple | None = None    # (kind, start, end, center, normal, radius, sweep, helix)
     pending_stop: bool = False           # stop before the next segment
     pending_dwell_s: float = 0.0         # dwell before the next segment
+    compress_break: bool = False         # an instruction since the last segment interrupts the
+                                         # compressor (the next segment starts a new group)
 
     @property
     def length_scale(self) -> float:

@@ -17,8 +17,9 @@ data", "Path action"):
 A motion block whose end equals its start makes no segment (a full circle does); so does a
 line shorter than ``MIN_LINE_MM`` (1e-9 mm, far below the 840D's position resolution MD10200
 $MN_INT_INCR_PER_MM), which only rounding makes, e.g. ``AROT`` then ``X=IC(0)``. A segment
-carries the compressor in force when it is a line of the simple form the compressor takes
-(:func:`_compressible`), and the programmed contour tolerance CTOL. A segment
+carries the compressor in force when it is a line, negated when another instruction came since
+the last segment (``ModalState.compress_break``, :func:`ncsim.nc.settings.compressible`), and
+the programmed contour tolerance CTOL. A segment
 stops before it (``stop_before``) after an M or H output, STOPRE, a change of SOFT/BRISK/DRIVE
 or a dwell since the last segment, or on a change between rapid and feed motion.
 
@@ -126,14 +127,6 @@ def _motion_col(ctx) -> int:
         return ctx.gcodes["motion"][1]
     cols = [c for *_, c in ctx.axes.values()] + [c for *_, c in ctx.centre.values()]
     return min(cols) if cols else ctx.first_col
-
-
-def _compressible(ctx) -> bool:
-    """A block of the simple form the compressor takes: ``N.. G1 X.. Y.. Z.. F..`` (positions
-    may be expressions; SINUMERIK Job Planning "NC block compression"). Any other word makes
-    the block an interruption (``Path.compressor`` 0)."""
-    return (not ctx.m and not ctx.h and not ctx.commands and not ctx.calls
-            and all(g == "motion" for g in ctx.gcodes) and all(v == "F" for v in ctx.values))
 
 
 def _suppressed(ctx) -> bool:
@@ -425,9 +418,11 @@ class Moves:
             "cp_mode": st.cp_mode, "adis_mm": st.adispos_mm if rapid else st.adis_mm,
             "accel_mode": st.accel_mode, "ffw": st.ffw, "stop_before": stop,
             "dwell_before_s": st.pending_dwell_s,
-            "compressor": st.compressor if kind == LINE and _compressible(ctx) else 0,
+            "compressor": 0 if kind != LINE else (-st.compressor if st.compress_break
+                                                   else st.compressor),
             "ctol_mm": st.ctol_mm})
         st.pending_stop = False
         st.pending_dwell_s = 0.0
+        st.compress_break = False
         st.last_rapid = rapid
         st.last_segment = (kind, tuple(start), tuple(end), center, normal, radius, sweep, helix)

@@ -46,6 +46,16 @@ HANDLED_COMMANDS = frozenset(
     | {"FFWON", "FFWOF", "STOPRE", "TRAFOOF", "FNORM", "CFC", "MCALL", "SUPA", "RET", "GOTOS"})
 
 
+def compressible(ctx) -> bool:
+    """A block of the simple form the compressor takes: ``N.. G1 X.. Y.. Z.. F..`` (positions
+    may be expressions, R parameters may be assigned, CTOL/OTOL "do not interrupt compression";
+    SINUMERIK Job Planning "NC block compression": "It is interrupted by any other type of NC
+    instruction": the next segment starts a new run, ``Path.compressor`` negated)."""
+    return (not ctx.m and not ctx.h and not ctx.commands and not ctx.calls
+            and all(g == "motion" for g in ctx.gcodes)
+            and all(v in ("F", "CTOL", "OTOL") for v in ctx.values))
+
+
 class Settings:
     """Applies a block's modal words to the modal state (nothing here moves the tool)."""
 
@@ -148,6 +158,8 @@ class Settings:
 
     def feed_spindle_tool(self, ctx) -> None:
         st = self.st
+        if not compressible(ctx):   # any other instruction interrupts the compressor
+            st.compress_break = True
         values = ctx.values
         dwell = "dwell" in ctx.gcodes
         if "F" in values and not dwell:

@@ -7,7 +7,8 @@ COMPCAD, COMPOF)"; Basic Functions B1 "Compressor functions"; 808D Function Manu
 * it compresses linear blocks of the simple form ``N.. G1 X.. Y.. Z.. F..`` (positions may be
   expressions); every other instruction -- an auxiliary function output, a stop, a change of
   the acceleration mode, any block that is not of that form -- interrupts it. The interpreter
-  marks such blocks with ``Path.compressor = 0``, and stops already end a run here;
+  marks the segment after such an instruction with a negated ``Path.compressor``, and stops
+  already end a run here;
 * a block longer than MD20170 ``$MC_COMPRESS_BLOCK_PATH_LIMIT`` is not compressed;
 * the curve deviates from the programmed end points by at most the tolerance: per axis
   MD33100 ``$MA_COMPRESS_POS_TOL``, or the programmed contour tolerance CTOL (CYCLE832);
@@ -100,19 +101,20 @@ class Compression:
 def compress(path: Path, machine: MachineSpec) -> Compression | None:
     """The compressed runs of ``path`` (module docstring), or None when no block qualifies."""
     n = path.n
-    if n < 2 or not np.any(path.compressor > 0):
+    if n < 2 or not np.any(path.compressor != 0):
         return None
     ncu = machine.ncu
     length = path.length_mm
-    eligible = ((path.kind == LINE) & ~path.rapid & (path.compressor > 0) & (length > 0.0)
+    comp = np.abs(path.compressor)
+    eligible = ((path.kind == LINE) & ~path.rapid & (comp > 0) & (length > 0.0)
                 & (length <= ncu.compress_block_path_limit_mm))
     joined = np.zeros(n + 1, dtype=bool)
     inner = slice(1, n)
-    comp = path.compressor
     u = line_directions(path)
     deflection = deflection_angle_rad(u[:-1], u[1:])
     keeps_corners = np.isin(comp[1:], (COMPCAD, COMPSURF))
-    joined[inner] = (eligible[:-1] & eligible[1:] & (comp[:-1] == comp[1:]) & ~path.stop_before[1:]
+    joined[inner] = (eligible[:-1] & eligible[1:] & (comp[:-1] == comp[1:])
+                     & (path.compressor[1:] > 0) & ~path.stop_before[1:]
                      & ~path.exact_stop[:-1] & (path.dwell_before_s[1:] <= 0.0)
                      & ~(keeps_corners & (deflection > ncu.crit_spline_angle_rad)))
     if not joined.any():
@@ -402,7 +404,7 @@ def _per_block(path: Path, joined: np.ndarray, fit: dict) -> Compression:
     # polynomial blocks: the whole run (COMPCAD, COMPSURF) or chunks of MAX_GROUP_BLOCKS
     run_of = np.repeat(np.arange(len(first)), count)
     rank = rows - np.repeat(first, count)
-    chunked = ~np.isin(path.compressor[rows], (COMPCAD, COMPSURF))
+    chunked = ~np.isin(np.abs(path.compressor[rows]), (COMPCAD, COMPSURF))
     group_key = np.where(chunked, rank // MAX_GROUP_BLOCKS, 0)
     new_group = np.ones(len(rows), dtype=bool)
     new_group[1:] = (run_of[1:] != run_of[:-1]) | (group_key[1:] != group_key[:-1])
