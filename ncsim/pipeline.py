@@ -308,6 +308,8 @@ def warmup(machine: MachineSpec | str | FsPath = "mikron") -> float:
         for depth in (spec.ncu.lookahead_blocks, 3):
             sim = simulate("warmup.mpf", spec.with_ncu(lookahead_blocks=depth),
                            text=warmup_program())
+        # the compressor's fit kernel (ncsim.plan.compressor)
+        simulate("warmup.mpf", spec, text=warmup_program().replace("FFWON", "FFWON COMPCAD", 1))
         trace = sample_motion(sim.motion)
         write_trace_csv(trace, io.BytesIO())
         write_trace_csv(trace, io.BytesIO(), columns="all")

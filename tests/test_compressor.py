@@ -206,3 +206,17 @@ def test_compressed_raster_is_checked_by_ruckig(mikron_module):
     sim = simulate("raster.mpf", mikron_module, text=raster("COMPCAD", passes=2, wave_mm=3.0))
     s = crosscheck(sim.motion, max_blocks=600).summary()
     assert s["violations"] == 0 and s["faster_than_optimum"] == 0
+
+
+def test_plain_and_compiled_fits_agree(mikron_module):
+    """The fit kernel runs as plain Python on small runs and compiled above (ncsim.jit): both
+    give the same windows, deviations and curvatures."""
+    from ncsim import jit
+
+    path = interpret_text(raster("COMPCAD", passes=2, wave_mm=3.0), "r.mpf", mikron_module).path
+    with jit.forced("python"):
+        plain = compress(path, mikron_module)
+    with jit.forced("compiled"):
+        compiled = compress(path, mikron_module)
+    for name in ("joined", "window_mm", "deviation_mm", "curvature_1_mm", "curvature_change_1_mm"):
+        np.testing.assert_array_equal(getattr(plain, name), getattr(compiled, name), err_msg=name)

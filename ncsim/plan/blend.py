@@ -63,7 +63,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import fresnel
 
 from ncsim.geometry import end_curvatures, end_tangents, start_curvatures, start_tangents
 from ncsim.machine import MachineSpec
@@ -88,6 +87,8 @@ def clothoid_pair_shape(deflection_rad) -> tuple[np.ndarray, np.ndarray]:
     x_m = a C(z), y_m = a S(z), with a = sqrt(pi / c), z = L / (2 a) and C, S the Fresnel
     integrals; by symmetry the corner lies on the normal through that middle point, so
     d = x_m + y_m tan(phi/2) and e = y_m / cos(phi/2). For small phi: g = 1/2, h = phi/12."""
+    from scipy.special import fresnel   # only where corners are rounded: a short run needs no scipy
+
     phi = np.asarray(deflection_rad, dtype=np.float64)
     small = phi < _SMALL_RAD
     p = np.where(small, 1.0, phi)

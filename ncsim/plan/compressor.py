@@ -56,7 +56,8 @@ numerically). When no W at least as long as the point's adjoining blocks passes,
 is a corner the compressor keeps: the run is split there and the corner is crossed as a
 corner (G64 jump or a G642 rounding block). Runs are extended by straight lines along their
 end directions so that the kernel never leaves the run. The search and the closed forms run
-in a compiled kernel (numba), the rest is numpy over all runs at once.
+in a kernel (``ncsim.jit``: compiled by numba above ``FIT_PYTHON_BELOW`` points, plain Python
+below), the rest is numpy over all runs at once.
 
 Look-ahead: the rows of one polynomial block count as one block of the 840D's look-ahead
 (``PathLimits.nc_block``, :mod:`ncsim.plan.lookahead`).
@@ -68,9 +69,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from ncsim.geometry import line_directions
+from ncsim.jit import njit
 from ncsim.machine import MachineSpec
 from ncsim.path import COMPCAD, COMPSURF, LINE, Path
 from ncsim.plan.kinematics import deflection_angle_rad
@@ -80,6 +81,8 @@ W_LEVELS = 12              # W_MAX, W_MAX/2, ... W_MAX/2^11 (4 um)
 MAX_GROUP_BLOCKS = 10      # COMPON/COMPCURV: blocks per polynomial (840D B1)
 _SPLIT_ROUNDS = 4          # refits after splitting runs at kept corners
 _RUN_GAP_MM = 1.0          # arc-length gap between runs in the joint arrays (never evaluated)
+FIT_PYTHON_BELOW = 2_000   # points below which the fit runs as plain Python (ncsim.jit): its
+                           # work per point is some 50 times a scanner kernel's
 
 
 @dataclass(frozen=True, slots=True)
@@ -309,7 +312,7 @@ def _within(s, q, i_pts, j_pts, unit, lo, hi, p, w, ctol, axis_tol, sm, d1, d2, 
     return inside
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, python_below=FIT_PYTHON_BELOW)
 def _fit_kernel(s, q, i_pts, j_pts, unit, pos, run_lo, run_hi, widths, last_level, ctol,
                 axis_tol, kappa, deviation, window, ok):
     """Per vertex: the widest level W whose smoothed point stays within the tolerance (the
