@@ -67,14 +67,17 @@ def simulate(program: str | FsPath, machine: MachineSpec | str | FsPath,
              options: ModelOptions = FULL_MODEL, *, text: str | None = None,
              setup_offsets: dict | str | FsPath | None = None,
              progress: Callable[[str], None] | None = None,
-             search_dir: str | FsPath | None = None) -> Simulation:
+             search_dir: str | FsPath | None = None,
+             nc_options: dict | None = None) -> Simulation:
     """Interpret ``program`` (a file, or ``text`` named ``program``, whose subprogram files are
     looked up in ``search_dir``) and plan it on ``machine`` (a :class:`MachineSpec`, a TOML
     file or a bundled machine's name).
 
     ``setup_offsets`` are work offsets (``{"G54": (x, y, z)}``) or a setup TOML file that gives
     them (:func:`ncsim.config.load_setup`). ``progress`` is called with the name of each stage
-    of :data:`STAGES` as it begins (e.g. to draw a progress bar)."""
+    of :data:`STAGES` as it begins (e.g. to draw a progress bar). ``nc_options`` are keyword
+    options of :func:`ncsim.nc.interpret.interpret_text` (``subprograms``,
+    ``missing_subprograms``, ``definitions``, ``block_budget``)."""
     from ncsim.config import load_setup
 
     spec = resolve_machine(machine)
@@ -83,11 +86,12 @@ def simulate(program: str | FsPath, machine: MachineSpec | str | FsPath,
     if progress is not None:
         progress("interpret")
     t0 = time.perf_counter()
+    nc_options = nc_options or {}
     if text is None:
-        result = interpret_file(program, spec, setup_offsets=setup_offsets)
+        result = interpret_file(program, spec, setup_offsets=setup_offsets, **nc_options)
     else:
         result = interpret_text(text, str(program), spec, setup_offsets=setup_offsets,
-                                search_dir=search_dir)
+                                search_dir=search_dir, **nc_options)
     t1 = time.perf_counter()
     if progress is not None:
         progress("plan")

@@ -51,6 +51,8 @@ class NcsimGroup(click.Group):
             click.echo("ncsim: interrupted", err=True)
             ctx.exit(int(ExitStatus.INTERRUPTED))
         except NcsimError as exc:
+            for warning in getattr(exc, "warnings", ()):   # what led to the error
+                click.echo(warning.render(), err=True)
             text = exc.render()
             if isinstance(exc, UsageError) and ctx.invoked_subcommand:  # no file to name
                 text = f"{ctx.command_path} {ctx.invoked_subcommand}: error: {text}"
@@ -93,6 +95,34 @@ def _compile_notice(text: str) -> None:
     click.echo(("\r\033[K" if tty and tty() else "") + text, err=True)
 
 
+def program_options(func):
+    """How the program is read: subprogram folders, missing subprograms, GUD definitions and
+    the block budget (``nc_options`` pops them for ``pipeline.simulate``)."""
+    func = click.option("--block-budget", type=click.IntRange(min=1), default=None, metavar="N",
+                        help="Stop as an endless loop after N executed blocks [default: the "
+                             "program's lines + 2,000,000].")(func)
+    func = click.option("--definitions", type=click.Path(dir_okay=False), multiple=True,
+                        metavar="FILE", help="GUD definitions file (MGUD.DEF, UGUD.DEF: DEF "
+                        "NCK|CHAN type name), read before the program; repeatable.")(func)
+    func = click.option("--missing-subprograms", type=click.Choice(["error", "warn"]),
+                        default="error", show_default=True,
+                        help="A call of a subprogram found nowhere: an error, or a warning "
+                             "(no motion, the time is marked approximate).")(func)
+    func = click.option("--subprograms", type=click.Path(file_okay=False), multiple=True,
+                        metavar="DIR", help="Folder searched for subprogram and cycle files "
+                        "(NAME.SPF/.MPF, any case) after the program's own folder; "
+                        "repeatable.")(func)
+    return func
+
+
+def nc_options(params: dict) -> dict:
+    """The interpreter options of :func:`program_options` (popped from ``params``)."""
+    return {"subprograms": params.pop("subprograms", ()),
+            "missing_subprograms": params.pop("missing_subprograms", "error"),
+            "definitions": params.pop("definitions", ()),
+            "block_budget": params.pop("block_budget", None)}
+
+
 @cli.command("parse")
 @click.argument("program", type=FilePath())
 @click.option("--machine", "machine_name", default=None,
@@ -101,7 +131,8 @@ def _compile_notice(text: str) -> None:
               help="Setup TOML with [work_offsets] G54 = [x, y, z] (overrides the machine's).")
 @click.option("--json", "as_json", is_flag=True, help="Print the segments and summary as JSON.")
 @click.option("--limit", type=click.IntRange(min=0), default=None, help="Print only the first N segments.")
-def parse_cmd(program, machine_name, setup_file, as_json, limit) -> None:
+@program_options
+def parse_cmd(program, machine_name, setup_file, as_json, limit, **params) -> None:
     """Interpret PROGRAM and list its path segments (warnings on stderr)."""
     from ncsim.config import load_setup
     from ncsim.machine import load_machine
@@ -109,7 +140,7 @@ def parse_cmd(program, machine_name, setup_file, as_json, limit) -> None:
 
     machine = load_machine(machine_name) if machine_name else None
     offsets = load_setup(setup_file) if setup_file else None
-    result = interpret_file(program, machine, setup_offsets=offsets)
+    result = interpret_file(program, machine, setup_offsets=offsets, **nc_options(params))
     for warning in (machine.warnings if machine else ()) + result.warnings:
         click.echo(warning.render(), err=True)
     path = result.path
@@ -197,7 +228,9 @@ def _text_only_feed_unit(feed_unit: str, as_json: bool) -> None:
 
 
 def simulation_options(func):
-    """PROGRAM-independent options of every command that simulates: --setup and the model."""
+    """PROGRAM-independent options of every command that simulates: --setup, how the program
+    is read (:func:`program_options`) and the model."""
+    func = program_options(func)
     for field, what in reversed(MODEL_FLAGS):
         flag = "--no-" + field.replace("_", "-")
         func = click.option(flag, f"no_{field}", is_flag=True, help=f"Switch off {what}.")(func)
@@ -322,6 +355,7 @@ def run_cmd(program, machine_name, as_json, top, trace_file, dt_s, trace_columns
 
     options = model_options(params)
     _text_only_feed_unit(feed_unit, as_json)
+    nc = nc_options(params)
     if not trace_file and (dt_s is not None or trace_columns != "default"):
         raise UsageError("--dt and --trace-columns apply to the trace: add --trace FILE.csv")
     stages = [*STAGES, *["cross-check"] * crosscheck, "summary"]
@@ -330,7 +364,7 @@ def run_cmd(program, machine_name, as_json, top, trace_file, dt_s, trace_columns
     progress = Progress(stages)
     try:
         sim = simulate(program, machine_name, options, setup_offsets=params["setup_file"],
-                       progress=progress)
+                       progress=progress, nc_options=nc)
         check = None
         if crosscheck:
             from ncsim.plan.crosscheck import crosscheck as run_crosscheck
@@ -425,6 +459,7 @@ def plot_cmd(program, machine_name, trace_file, output, dt_s, rapids, range_text
     from ncsim.report.plot import check_figure_file
 
     options = model_options(params)
+    nc = nc_options(params)
     check_figure_file(output)
     spec = view.parse_range(range_text) if range_text is not None else None
     if (program is None) == (trace_file is None):
@@ -449,7 +484,7 @@ def plot_cmd(program, machine_name, trace_file, output, dt_s, rapids, range_text
         progress = Progress([*STAGES, "sample", "draw"])
         try:
             sim = simulate(program, machine_name, options, setup_offsets=params["setup_file"],
-                           progress=progress)
+                           progress=progress, nc_options=nc)
             numbers = view.block_numbers(sim.motion.path)
             window = view.window_for(spec, None, sim.motion, numbers)
             with progress.stage("sample"):
@@ -514,6 +549,7 @@ def check_cmd(program, machine_name, max_time_s, min_feed_ratio, max_limited_fra
     from ncsim.pipeline import STAGES, simulate
 
     options = model_options(params)
+    nc = nc_options(params)
     require_thresholds(max_time_s, min_feed_ratio, max_limited_fraction, baseline_file,
                        max_regression_pct)
     baseline = load_baseline(baseline_file) if baseline_file else None
@@ -524,7 +560,7 @@ def check_cmd(program, machine_name, max_time_s, min_feed_ratio, max_limited_fra
     progress = Progress([*STAGES, "summary"])
     try:
         sim = simulate(program, machine_name, options, setup_offsets=params["setup_file"],
-                       progress=progress)
+                       progress=progress, nc_options=nc)
         with progress.stage("summary"):
             per_block = baseline is not None and "blocks_detail" in baseline
             summary = report.summary(sim, top=5, include_blocks=per_block)

@@ -1,25 +1,39 @@
-"""Subprogram calls, the built-in cycles and the end of a program or subprogram.
+"""Subprogram calls, modal calls, the built-in cycles and the end of a program or subprogram.
 
-840D semantics (Programming Guide Fundamentals, "Subprograms and repetition of program
-sections"; Programming Guide Advanced, "Subprogram technique"):
+840D semantics (Programming Manual Fundamentals, "Subprograms"; Programming Manual Job
+planning, "Subprogram technique", "Modal subprogram call (MCALL)"):
 
 * a subprogram is called by its name (``NAME``, ``NAME(args)``) or as ``L<n>``; ``P<n>`` in the
   same block repeats it n times; one call per block, and never with M2/M30/M17/RET;
-* a name is looked up as a PROC of the same text, then as ``NAME.SPF``/``NAME.MPF`` next to the
-  calling program (:meth:`Calls.find_unit`); call-by-reference (VAR) parameters are not
-  simulated; nesting is limited to 16 levels (the default of the 840D's machine data);
+* the control finds a subprogram (:class:`SubprogramFinder`) as a PROC of a loaded text, else
+  as a file ``NAME.MPF``/``NAME.SPF`` (or ``_N_NAME_MPF``/``_N_NAME_SPF``, names compared without
+  case) in the caller's folder, the main program's folder and the ``--subprograms`` folders,
+  in this order. A cycle that looks standard (``CYCLE82``, ``HOLES2``) is executed from its
+  file when there is one; without a file it is recorded with a warning and makes no motion.
+  A subprogram that is nowhere is an error naming the folders searched, or with
+  ``--missing-subprograms warn`` a warning (no motion, the result is approximate);
+* a PROC's parameters are passed by value, ``VAR`` ones by reference (the caller's variable or
+  array itself); ``SAVE`` restores the modal G functions and frames at the return; nesting is
+  limited to 16 levels (the default of the 840D's machine data);
+* ``MCALL NAME(args)`` calls NAME after every later block with path motion, except inside the
+  modal subprogram and what it calls; ``MCALL`` alone ends it;
+* ``SETAL(n)`` sets a cycle alarm: 62000-62999 are messages (a warning, the program goes on),
+  every other alarm stops the program (an error at the SETAL); ``SETMS(n)``/``SETMS`` select
+  the master spindle; ``MSG`` is recorded;
 * M17/RET return, M2/M30 end the program, GOTOS jumps to its start.
 
-Cycles: ``CYCLE832`` (high speed settings) is simulated (:meth:`Calls._cycle832`); ``MSG`` is
-recorded, ``CYCLE800`` recorded with a warning (it changes the geometry); any other standard
-cycle name (``CYCLE81``, ``POCKET3``, ...) without a PROC of that name is recorded with a
-warning and makes no motion. A new built-in cycle is one handler in :attr:`Calls.builtins`.
+Built-in cycles: ``CYCLE832`` (high speed settings) is simulated (:meth:`Calls._cycle832`; a
+file of that name does not replace it); ``CYCLE800`` is recorded with a warning (it changes the
+geometry). A new built-in cycle is one handler in :attr:`Calls.builtins`.
 """
 from __future__ import annotations
 
 import math
+import os
 import re
+from pathlib import Path as FsPath
 
+from ncsim.nc import program as P
 from ncsim.nc.context import CallFrame
 from ncsim.nc.expr import Where, format_value
 from ncsim.nc.flow import Unit, is_proc, split_units
@@ -29,12 +43,65 @@ from ncsim.nc.parse import parse_text, read_program_text
 from ncsim.nc.settings import HANDLED_COMMANDS, Settings
 
 MAX_CALL_DEPTH = 16          # subprogram nesting (the 840D allows 16 levels with its default MD)
-SUBPROGRAM_SUFFIXES = (".SPF", ".spf", ".MPF", ".mpf")
+MAX_NAME_CHARS = 255         # longer words are no file name (the 840D allows 24 characters)
 _STANDARD_CYCLES = re.compile(r"^(CYCLE\d+|POCKET\d|SLOT\d|LONGHOLE|HOLES\d|E_[A-Z_]+|F_[A-Z_]+)$")
+#: cycles ncsim simulates itself even when a file of that name is found
+SIMULATED_CYCLES = frozenset({"CYCLE832"})
+#: built-in procedures of the language (never looked up as files)
+LANGUAGE_PROCEDURES = frozenset({"MSG", "SETAL", "SETMS"})
+CYCLE_ALARM_MESSAGES = range(62000, 63000)   # display-only cycle alarms: the program goes on
 
 
 def is_standard_cycle(name: str) -> bool:
     return _STANDARD_CYCLES.match(name) is not None
+
+
+class SubprogramFinder:
+    """Finds subprogram files by name, without case, in an ordered list of folders."""
+
+    def __init__(self, dirs) -> None:
+        self.dirs: list[FsPath] = []
+        for d in dirs:
+            self.add(d)
+        self._listings: dict[FsPath, dict[str, FsPath]] = {}
+
+    def add(self, folder) -> None:
+        if folder is None:
+            return
+        folder = FsPath(folder)
+        if folder not in self.dirs:
+            self.dirs.append(folder)
+
+    def _listing(self, folder: FsPath) -> dict[str, FsPath]:
+        found = self._listings.get(folder)
+        if found is None:
+            found = {}
+            try:
+                for entry in sorted(os.scandir(folder), key=lambda e: e.name):
+                    if entry.is_file():
+                        found.setdefault(entry.name.upper(), FsPath(entry.path))
+            except OSError:
+                pass
+            self._listings[folder] = found
+        return found
+
+    def find(self, name: str, first: FsPath | None = None) -> FsPath | None:
+        """The file of subprogram ``name``: in ``first`` (the caller's folder), then the folders.
+        ``NAME.MPF`` before ``NAME.SPF`` (the control looks for a main program first)."""
+        if len(name) > MAX_NAME_CHARS:
+            return None
+        keys = (f"{name}.MPF", f"{name}.SPF", f"_N_{name}_MPF", f"_N_{name}_SPF")
+        folders = ([first] if first is not None else []) + [d for d in self.dirs if d != first]
+        for folder in folders:
+            listing = self._listing(folder)
+            for key in keys:
+                if key in listing:
+                    return listing[key]
+        return None
+
+    def searched(self, first: FsPath | None) -> list[str]:
+        folders = ([first] if first is not None else []) + [d for d in self.dirs if d != first]
+        return [str(f) for f in folders]
 
 
 class Calls:
@@ -42,26 +109,53 @@ class Calls:
 
     def __init__(self, state) -> None:
         self.state = state
-        self.builtins = {"MSG": self._msg, "CYCLE832": self._cycle832, "CYCLE800": self._cycle800}
+        self.builtins = {"CYCLE832": self._cycle832, "CYCLE800": self._cycle800}
+        self.procedures = {"MSG": self._msg, "SETAL": self._setal, "SETMS": self._setms}
         self.settings = Settings(state)
+        self.finder = SubprogramFinder([state.search_dir, *state.options.subprogram_dirs])
+        self.file_dirs: dict[str, FsPath] = {}     # file of a loaded unit -> its folder
+        self.main_file: str | None = None
 
     # ---- the stack ---------------------------------------------------------------------------
 
-    def push(self, unit: Unit, args: tuple, repeats: int) -> None:
+    def push(self, unit: Unit, args: tuple, repeats: int, refs: dict | None = None,
+             modal_call: bool = False) -> None:
         state = self.state
         if len(state.stack) >= MAX_CALL_DEPTH:
             raise Where(unit.file, 0).error(f"subprogram nesting deeper than {MAX_CALL_DEPTH} "
                                             f"levels", 0)
+        inside_modal = modal_call or (bool(state.stack) and state.stack[-1].modal_call)
         fr = CallFrame(unit, state.out.builder.file_index(unit.file),
-                       pc=1 if is_proc(unit) else 0, args=args, repeats_left=repeats)
-        state.vars.bind_params(fr, unit.params, args)
+                       pc=1 if is_proc(unit) else 0, args=args, repeats_left=repeats,
+                       modal_call=inside_modal)
+        if "SAVE" in unit.attributes:
+            fr.saved = self._save()
+        fr.refs = refs
+        state.vars.bind_params(fr, unit.params, args, refs)
         state.stack.append(fr)
 
     def return_(self) -> None:
         """Leave the current unit (its end, M17 or RET); a repeated call (P) runs it again."""
         fr = self.state.stack.pop()
+        if fr.saved is not None:
+            self._restore(fr.saved)
         if fr.repeats_left > 1:
-            self.push(fr.unit, fr.args, fr.repeats_left - 1)
+            self.push(fr.unit, fr.args, fr.repeats_left - 1, fr.refs, fr.modal_call)
+
+    def _save(self):
+        """What SAVE restores at the return: the modal G functions and the frames
+        (Job planning, "Subprograms with SAVE mechanism"); F and S are not restored."""
+        st = self.state.st
+        return ((st.motion, st.plane, st.incremental, st.units, st.cp_mode, st.stop_window,
+                 st.accel_mode, st.ffw, st.radius_comp, st.settable_mm, st.prog_frame),
+                (self.state.feed_type, self.state.settable_code))
+
+    def _restore(self, saved) -> None:
+        state, st = self.state, self.state.st
+        (st.motion, st.plane, st.incremental, st.units, st.cp_mode, st.stop_window,
+         st.accel_mode, st.ffw, st.radius_comp, st.settable_mm, st.prog_frame) = saved[0]
+        state.feed_type, state.settable_code = saved[1]
+        st.set_frames()
 
     # ---- finding units -----------------------------------------------------------------------
 
@@ -75,21 +169,43 @@ class Calls:
                     f"{first.items[0].line})", 1)
             known[u.name] = u
 
-    def find_unit(self, name: str) -> Unit | None:
+    def find_unit(self, name: str, caller_file: str | None = None) -> Unit | None:
+        """The unit called ``name``: a PROC of a loaded text, else a subprogram file."""
         state = self.state
-        if name in state.units:
-            return state.units[name]
-        if state.search_dir is None:
+        unit = state.units.get(name)
+        if unit is not None:
+            return unit
+        path = self.finder.find(name, self._caller_dir(caller_file))
+        if path is None:
             return None
-        for suffix in SUBPROGRAM_SUFFIXES:
-            candidate = state.search_dir / f"{name}{suffix}"
-            if _is_file(candidate):
-                program = parse_text(read_program_text(candidate), str(candidate), fast=state.fast)
-                units = split_units(program, name)
-                self.add_units(units[1:])
-                state.units.setdefault(name, units[0])
-                return units[0]
-        return None
+        text = read_program_text(path)
+        program = parse_text(text, str(path), fast=state.fast)
+        self.file_dirs[str(path)] = path.parent
+        state.add_lines(program.n_lines)
+        units = split_units(program, name)
+        self.add_units(units[1:])
+        state.units.setdefault(name, units[0])
+        return units[0]
+
+    def _caller_dir(self, caller_file: str | None) -> FsPath | None:
+        """The folder of the calling program's file (None for a program given as text)."""
+        found = self.file_dirs.get(caller_file)
+        if found is None and caller_file == self.main_file:
+            return self.state.search_dir
+        return found
+
+    def _missing(self, ctx, name: str, col: int) -> None:
+        """A subprogram that is nowhere: an error, or with --missing-subprograms warn a warning."""
+        folders = self.finder.searched(self._caller_dir(ctx.file))
+        where = ", ".join(folders) if folders else "no folder (a program given as text)"
+        if self.state.options.missing_subprograms == "warn":
+            ctx.record(name, ())
+            ctx.warn("missing subprogram", f"subprogram {name} not found (searched {where}): "
+                     f"skipped, no motion", col)
+            return
+        raise ctx.error(f"subprogram {name} not found: no PROC {name} and no {name}.MPF/"
+                        f"{name}.SPF in {where} (--subprograms DIR adds a folder, "
+                        f"--missing-subprograms warn skips the call)", col)
 
     # ---- calls in a block --------------------------------------------------------------------
 
@@ -104,53 +220,103 @@ class Calls:
         targets = []
         if "L" in ctx.values:
             value, col = ctx.values["L"]
-            targets.append((f"L{ctx.whole_number(value, 'L', col)}", (), col))
+            targets.append((f"L{ctx.whole_number(value, 'L', col)}", (), col, ()))
         for name, col in ctx.commands:
             if name not in HANDLED_COMMANDS:
-                targets.append((name, (), col))
-        for name, args, col in ctx.calls:
-            if self._builtin_call(ctx, name, args, col):
+                targets.append((name, (), col, ()))
+        for k, (name, args, col) in enumerate(ctx.calls):
+            if name in self.procedures:
+                self.procedures[name](ctx, name, args, col)
                 continue
-            targets.append((name, args, col))
+            exprs = ctx.call_exprs[k] if k < len(ctx.call_exprs) else ()
+            targets.append((name, args, col, exprs))
         if not targets and "P" in ctx.values:
             raise ctx.error("P (repetitions) without a subprogram call", ctx.values["P"][1])
         if len(targets) > 1:
-            name, _, col = targets[1]
+            name, _, col, _ = targets[1]
             raise ctx.error(f"second subprogram call {name} in one block", col)
         if targets and (any(code in (M_END, M_END_RESET, M_RETURN) for code, _ in ctx.m)
                         or any(name == "RET" for name, _ in ctx.commands)):
             raise ctx.error(f"subprogram call {targets[0][0]} together with the end of the "
                             f"program or a return in one block", targets[0][2])
-        for name, args, col in targets:
-            self._call(ctx, name, args, repeats, col)
+        for name, args, col, exprs in targets:
+            self.call(ctx, name, args, repeats, col, exprs)
 
-    def _call(self, ctx, name: str, args: tuple, repeats: int, col: int) -> None:
-        unit = self.find_unit(name)
+    def call(self, ctx, name: str, args: tuple, repeats: int, col: int, exprs: tuple = (),
+             modal_call: bool = False) -> None:
+        """Call ``name``: its source if there is one, else a built-in cycle, else a standard
+        cycle's warning, else a missing subprogram."""
+        handler = self.builtins.get(name)
+        if handler is not None and name in SIMULATED_CYCLES:
+            handler(ctx, name, args, col)
+            return
+        unit = self.find_unit(name, ctx.file)
         if unit is None:
-            raise ctx.error(f"unknown word {name} (no such command, PROC or subprogram file)", col)
+            if handler is not None:
+                handler(ctx, name, args, col)
+            elif is_standard_cycle(name):
+                ctx.record(name, args)
+                ctx.warn("cycle", f"{name}: machining cycle not simulated (no {name}.SPF found, "
+                         f"no motion generated)", col)
+            else:
+                self._missing(ctx, name, col)
+            return
         if len(args) > len(unit.params):
             raise ctx.error(f"{name} takes {len(unit.params)} arguments, got {len(args)}", col)
-        for param in unit.params:
-            if param.by_reference:
-                raise ctx.unsupported(f"call-by-reference parameter {param.name} (VAR) of {name} "
-                                      f"is not simulated", col)
+        refs = self._references(ctx, name, unit, exprs, col)
         if len(self.state.stack) >= MAX_CALL_DEPTH:
             raise ctx.error(f"subprogram nesting deeper than {MAX_CALL_DEPTH} levels", col)
-        self.push(unit, args, repeats)
+        self.push(unit, args, repeats, refs, modal_call)
 
-    # ---- built-in cycles ---------------------------------------------------------------------
+    def _references(self, ctx, name: str, unit: Unit, exprs: tuple, col: int) -> dict | None:
+        """The caller's variables bound to the VAR parameters of ``unit``."""
+        refs = None
+        for k, param in enumerate(unit.params):
+            if not param.by_reference or k >= len(exprs) or exprs[k] is None:
+                continue
+            expr = exprs[k]
+            entry = (self.state.vars.entry(expr.name) if isinstance(expr, P.Var) else None)
+            if entry is None:
+                raise ctx.unsupported(f"VAR parameter {param.name} of {name} needs a variable "
+                                      f"(DEF ...) as its argument", getattr(expr, "col", col))
+            refs = refs or {}
+            refs[param.name] = entry
+        return refs
 
-    def _builtin_call(self, ctx, name: str, args: tuple, col: int) -> bool:
-        """CYCLE832, MSG and the standard cycles: recorded (with a warning when it matters)."""
-        handler = self.builtins.get(name)
-        if handler is not None:
-            handler(ctx, name, args, col)
-            return True
-        if is_standard_cycle(name) and name not in self.state.units:
-            ctx.record(name, args)
-            ctx.warn("cycle", f"{name}: machining cycle not simulated (no motion generated)", col)
-            return True
-        return False
+    # ---- modal calls (MCALL) -----------------------------------------------------------------
+
+    def modal_call_after_motion(self, ctx) -> None:
+        """After a block with path motion: call the active modal subprogram."""
+        state = self.state
+        if state.modal_call is None or ctx.frame.modal_call or state.ended:
+            return
+        name, args, col = state.modal_call
+        self.call(ctx, name, args, 1, col, modal_call=True)
+
+    def set_modal_call(self, ctx, col: int) -> None:
+        """MCALL NAME(args): NAME becomes the modal call (a standard cycle without its file is
+        only recorded, with a warning); MCALL alone ends it."""
+        state = self.state
+        if not ctx.calls:
+            ctx.record("MCALL", ())
+            state.modal_call = None
+            return
+        name, args, _ = ctx.calls.pop(0)
+        if ctx.call_exprs:
+            ctx.call_exprs.pop(0)
+        ctx.record(f"MCALL {name}", args)
+        if name not in SIMULATED_CYCLES and self.find_unit(name, ctx.file) is not None:
+            state.modal_call = (name, args, col)
+            return
+        state.modal_call = None
+        if is_standard_cycle(name) or name in self.builtins:
+            ctx.warn("MCALL", f"MCALL {name}: the modal call is not executed after the following "
+                     f"positioning blocks (no {name}.SPF found; only the positioning moves are "
+                     f"simulated)", col)
+        else:
+            self._missing(ctx, name, col)
+
+    # ---- built-in procedures and cycles ------------------------------------------------------
 
     def _msg(self, ctx, name: str, args: tuple, col: int) -> None:
         ctx.record("MSG", args)
@@ -226,6 +392,29 @@ class Calls:
         ctx.warn("CYCLE800", "CYCLE800 swivel plane (5-axis) is not simulated: X/Y/Z are used "
                  "as programmed", col)
 
+    def _setal(self, ctx, name: str, args: tuple, col: int) -> None:
+        """SETAL(n): a cycle alarm (Diagnostics Manual: cycle alarms 61000-61999 stop the
+        program, 62000-62999 are messages)."""
+        if len(args) < 1 or isinstance(args[0], str) or args[0] is None:
+            raise ctx.error("SETAL needs an alarm number", col)
+        number = ctx.whole_number(args[0], "SETAL", col)
+        unit = ctx.frame.unit.name
+        if number in CYCLE_ALARM_MESSAGES:
+            ctx.warn("cycle alarm", f"cycle alarm {number} set by {unit} (a message: the program "
+                     f"goes on)", col)
+            ctx.record("SETAL", args)
+            return
+        raise ctx.error(f"cycle alarm {number} set by {unit} (SETAL): the control stops the "
+                        f"program here", col)
+
+    def _setms(self, ctx, name: str, args: tuple, col: int) -> None:
+        """SETMS(n) makes spindle n the master spindle; SETMS() returns to the MD default."""
+        if args and args[0] is not None:
+            self.state.master_spindle = ctx.whole_number(args[0], "SETMS", col)
+        else:
+            self.state.master_spindle = 1
+        ctx.record("SETMS", args)
+
     # ---- end of the block --------------------------------------------------------------------
 
     def program_end(self, ctx) -> None:
@@ -238,12 +427,4 @@ class Calls:
         elif any(name == "GOTOS" for name, _ in ctx.commands):
             fr = ctx.frame
             fr.pc, fr.row = (1 if is_proc(fr.unit) else 0), 0
-
-
-def _is_file(path) -> bool:
-    """Whether ``path`` is a readable file; a name the file system cannot hold (longer than
-    its limit, e.g. a 300-character word taken as a subprogram name) is no file."""
-    try:
-        return path.is_file()
-    except OSError:
-        return False
+            self.state.jumped_back(ctx.file, ctx.line, 1)

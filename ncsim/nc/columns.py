@@ -8,8 +8,9 @@ as in the block path. No object is made per block.
 
 :meth:`ColumnPath.run` takes a run only when it cannot raise or warn: a value out of range, a
 feed that is not positive, a move without feed, I J K on a line, a circle without centre or with
-a centre off the plane, an ellipse, a bad circle end point, CIP/CT modal or the block budget all
-send the whole run back to the block path, having changed nothing. So both paths give the same
+a centre off the plane, an ellipse, a bad circle end point, CIP/CT modal, the block budget, an
+active modal call (MCALL) or a feed per revolution all send the whole run back to the block
+path, having changed nothing. So both paths give the same
 Path, warnings and errors (``tests/test_fastpath.py`` compares them).
 """
 from __future__ import annotations
@@ -45,7 +46,8 @@ class ColumnPath:
         state = self.state
         st = self.st
         n = len(run)
-        if state.blocks + n > state.budget:
+        if state.blocks + n > state.budget or state.modal_call is not None or \
+                state.feed_type not in (94, 971):
             return False
         vals = run.values
         present = ~np.isnan(vals)

@@ -25,7 +25,8 @@ import numpy as np
 
 from ncsim.errors import NcError, NcSemanticError, NcUnsupportedError, NcWarning
 from ncsim.nc.expr import evaluate, evaluate_number, format_value
-from ncsim.nc.modal import ModalState
+from ncsim.nc.modal import COMMANDS_NOT_SIMULATED, ModalState
+from ncsim.nc.sysvars import SystemVariables
 from ncsim.nc.variables import Variables
 from ncsim.path import PathBuilder
 
@@ -33,7 +34,57 @@ WARNING_CAP = 20             # warnings of one kind shown before they are only c
 WORD_VALUE_LIMIT = 1e9       # |value| of a word: the 840D accepts +-999 999 999.9999
 DEFAULT_CIRCLE_ERROR_CONST_MM = 0.01   # MD21000 $MC_CIRCLE_ERROR_CONST (840D default)
 DEFAULT_CIRCLE_ERROR_FACTOR = 0.001    # MD21010 $MC_CIRCLE_ERROR_FACTOR (840D default)
+#: blocks a program may execute beyond the lines of its files before it is taken for an endless
+#: loop (``--block-budget`` changes it): the shop programs that generate their motion in loops
+#: execute up to ~1.2 million blocks
+DEFAULT_LOOP_BUDGET = 2_000_000
+ROWS_PER_FLUSH = 50_000      # block-path segments kept as Python rows before they become columns
+MISSING_SUBPROGRAMS = ("error", "warn")
 
+#: warning kinds that make the cycle time approximate (something that can change the time is
+#: not simulated), with the reason the summary gives; other warnings (a work offset taken as 0,
+#: a tool offset, M0) do not change the time ncsim can know
+APPROXIMATE_KINDS = {
+    "cycle": "machining cycles without their source are not simulated (no motion)",
+    "missing subprogram": "missing subprograms are skipped (no motion)",
+    "MCALL": "modal calls of cycles without their source are not executed",
+    "CYCLE832": "CYCLE832 high-speed settings are not simulated",
+    "CYCLE800": "CYCLE800 swivelling is not simulated",
+    "rotary axis": "rotary axis motion is not simulated",
+    "additional axis": "additional axes (U V W) are not simulated",
+    "transformation": "kinematic transformations (TRAORI, ...) are not simulated",
+    "M6": "tool change times are not simulated",
+    "cutter compensation": "cutter radius compensation is not simulated (programmed contour)",
+    "dwell": "a G4 S dwell without spindle speed is taken as 0 s",
+    "spindle positioning": "spindle positioning (SPOS) times are not simulated",
+    "system variable": "assignments to system variables are not simulated",
+    **{name: "the compressor is not simulated" for name in ("COMPON", "COMPCURV", "COMPCAD",
+                                                              "COMPSURF")},
+    **{name: "dynamic response modes are not simulated" for name in (
+        "DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "DYNPREC")},
+    **{name: f"{what} ({name}) is not simulated" for name, what in COMMANDS_NOT_SIMULATED.items()},
+}
+
+
+@dataclass(frozen=True, slots=True)
+class InterpretOptions:
+    """How a program is interpreted (the CLI's ``--subprograms``, ``--missing-subprograms``,
+    ``--definitions`` and ``--block-budget``).
+
+    ``subprogram_dirs``: folders searched for subprogram and cycle files after the caller's own
+    folder (names compared without case); ``missing_subprograms``: ``"error"`` (a call of a
+    subprogram that is nowhere is an error naming the folders searched) or ``"warn"`` (a warning,
+    the call makes no motion, the result is approximate); ``definitions``: GUD definition files
+    (``MGUD.DEF``, ``UGUD.DEF``: ``DEF NCK|CHAN type name``) read before the program;
+    ``block_budget``: executed blocks before the run is stopped as an endless loop (None: the
+    lines of the program files plus :data:`DEFAULT_LOOP_BUDGET`)."""
+
+    subprogram_dirs: tuple = ()
+    missing_subprograms: str = "error"
+    definitions: tuple = ()
+    block_budget: int | None = None
+    fast: bool = True
+    skip_blocks: bool = False
 
 @dataclass(frozen=True, slots=True)
 class RecordedCall:
@@ -50,15 +101,19 @@ class RecordedCall:
 
 
 class Warnings:
-    """Warnings in order, each site once; beyond WARNING_CAP of one kind only counted."""
+    """Warnings in order, each site once; beyond WARNING_CAP of one kind only counted. Every
+    execution of a warning of an :data:`APPROXIMATE_KINDS` kind is counted in ``approximate``."""
 
     def __init__(self) -> None:
         self.items: list[NcWarning] = []
         self._seen: set = set()
         self._counts: dict[str, int] = {}
         self._hidden: dict[str, list] = {}
+        self.approximate: dict[str, int] = {}
 
     def add(self, kind: str, message: str, file: str, line: int, col: int = 0) -> None:
+        if kind in APPROXIMATE_KINDS:
+            self.approximate[kind] = self.approximate.get(kind, 0) + 1
         key = (file, line, col, message)
         if key in self._seen:
             return
@@ -75,6 +130,11 @@ class Warnings:
                 for kind, (n, file, line) in self._hidden.items()]
         return tuple(self.items + tail)
 
+    def approximations(self) -> tuple[tuple[str, int, str], ...]:
+        """(kind, times, reason) of what makes the time approximate, most frequent first."""
+        return tuple(sorted(((k, n, APPROXIMATE_KINDS[k]) for k, n in self.approximate.items()),
+                            key=lambda t: (-t[1], t[0])))
+
 
 @dataclass(slots=True)
 class CallFrame:
@@ -89,6 +149,11 @@ class CallFrame:
     args: tuple = ()
     repeats_left: int = 1
     for_end: dict = field(default_factory=dict)
+    repeats: dict = field(default_factory=dict)      # REPEAT block -> repetitions left
+    section_ends: list = field(default_factory=list)  # (last item of a section, its REPEAT)
+    saved: object = None         # the modal state a SAVE subprogram restores at its return
+    modal_call: bool = False     # this frame runs a modal call (MCALL): no modal call inside
+    refs: dict | None = None     # VAR parameters: name -> the caller's variable
 
 
 class PathOutput:
@@ -105,6 +170,8 @@ class PathOutput:
     def append(self, row: dict) -> None:
         self.rows.append(row)
         self.n_segments += 1
+        if len(self.rows) >= ROWS_PER_FLUSH:   # bounded memory: rows become columns
+            self.flush()
 
     def extend(self, n: int, **columns) -> None:
         """Add ``n`` segments given as columns (after the buffered rows)."""
@@ -123,16 +190,19 @@ class PathOutput:
 class InterpreterState:
     """Everything an interpretation changes, shared by the interpreter's collaborators.
 
-    ``machine`` gives the work offsets (overridden by ``setup_offsets``) and the circle
-    end-point tolerances MD21000/MD21010; ``budget`` bounds the executed blocks."""
+    ``machine`` gives the work offsets (overridden by ``setup_offsets``), the circle end-point
+    tolerances MD21000/MD21010 and the values of system variables; ``options`` the subprogram
+    folders, the block budget and the rest of :class:`InterpretOptions`; ``search_dir`` is the
+    main program's folder (None for a text)."""
 
-    def __init__(self, machine, budget: int, setup_offsets, fast: bool, skip_blocks: bool,
-                 search_dir) -> None:
+    def __init__(self, machine, options: InterpretOptions, setup_offsets, search_dir) -> None:
         self.machine = machine
-        self.budget = budget
+        self.options = options
+        self.auto_budget = options.block_budget is None
+        self.budget = DEFAULT_LOOP_BUDGET if self.auto_budget else options.block_budget
         self.offsets = dict(setup_offsets or {})
-        self.fast = fast
-        self.skip_blocks = skip_blocks
+        self.fast = options.fast
+        self.skip_blocks = options.skip_blocks
         self.search_dir = FsPath(search_dir) if search_dir is not None else None
         ncu = machine.ncu if machine is not None else None
         self.circle_const_mm = ncu.circle_error_const_mm if ncu else DEFAULT_CIRCLE_ERROR_CONST_MM
@@ -143,7 +213,17 @@ class InterpreterState:
         self.cycle832_notes: set = set()   # one-time CYCLE832 warnings already given
         self.stack: list[CallFrame] = []
         self.vars = Variables(self.stack)
+        given = getattr(machine, "system_variables", ()) if machine is not None else ()
+        self.vars.sysvars = SystemVariables(self, dict(given))
         self.blocks = 0
+        self.loop_counts: dict = {}        # (file, line, col) of a jump back -> times taken
+        self.f_value = 0.0                 # the last F as programmed ($P_F)
+        self.feed_type = 94                # G93/G94/G95/G97/G971 (group 15)
+        self.settable_code = 500           # G500, G54.. (group 8)
+        self.master_spindle = 1            # SETMS
+        self.modal_call = None             # (Unit, args, name) of an active MCALL
+        self.pole_wcs = None               # polar coordinates: pole (G110-G112), None: origin
+        self.polar = [0.0, 0.0]            # AP (deg), RP (mm) as last programmed
         self.warnings = Warnings()
         self.recorded: list[RecordedCall] = []
         self.units: dict = {}              # name -> ncsim.nc.flow.Unit (PROCs and files)
@@ -155,8 +235,27 @@ class InterpreterState:
         """One more block executed; the budget stops endless loops."""
         self.blocks += 1
         if self.blocks > self.budget:
-            raise NcSemanticError(f"block budget of {self.budget} blocks exceeded (endless loop?)",
-                                  file, line, 1)
+            raise self.budget_error(file, line)
+
+    def add_lines(self, n: int) -> None:
+        """A program file of ``n`` lines was loaded: the automatic budget grows by as much."""
+        if self.auto_budget:
+            self.budget += n
+
+    def jumped_back(self, file: str, line: int, col: int) -> None:
+        """A jump back (GOTOB, ENDWHILE, ENDLOOP, ...) was taken: what a budget error names."""
+        key = (file, line, col)
+        self.loop_counts[key] = self.loop_counts.get(key, 0) + 1
+
+    def budget_error(self, file: str, line: int) -> NcError:
+        """The block budget is exhausted: the error names the jump back taken most often."""
+        what = f"block budget of {self.budget} blocks exceeded"
+        hint = "(--block-budget N allows more)"
+        if not self.loop_counts:
+            return NcSemanticError(f"{what}: endless loop? {hint}", file, line, 1)
+        (lfile, lline, lcol), n = max(self.loop_counts.items(), key=lambda kv: kv[1])
+        return NcSemanticError(f"{what}: endless loop? this jump back was taken {n} times "
+                               f"{hint}", lfile, lline, lcol)
 
 
 class BlockContext:
@@ -209,7 +308,7 @@ class WordContext(BlockContext):
     """A block of words: its context and its evaluated words, by role."""
 
     __slots__ = ("gcodes", "axes", "centre", "inter", "values", "m", "h", "commands", "calls",
-                 "first_col")
+                 "call_exprs", "first_col", "polar")
 
     def __init__(self, state: InterpreterState, frame: CallFrame, line: int) -> None:
         self.state = state           # the base fields set here, not by super(): a call less per block
@@ -225,4 +324,6 @@ class WordContext(BlockContext):
         self.h: list = []
         self.commands: list = []     # (name, col)
         self.calls: list = []        # (name, args, col)
+        self.call_exprs: list = []   # the argument expressions of each call (VAR parameters)
         self.first_col = 1
+        self.polar: dict = {}        # AP/RP -> (value, mode, col)

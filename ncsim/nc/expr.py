@@ -9,8 +9,12 @@
   ``SQRT ABS``; ``POT(x)`` is x squared; ``TRUNC`` cuts the fraction; ``ROUND`` rounds half
   away from zero;
 * ``<<`` concatenates strings (numbers are formatted like the 840D: no trailing zeros);
-* R parameters exist from the start with the value 0; a user variable must be DEFined;
-  reading a system variable ($...) is not simulated (NcUnsupportedError).
+* R parameters exist from the start with the value 0; a user variable must be DEFined; array
+  elements ``A[i]`` and system variables ``$...`` are read through the scope
+  (:mod:`ncsim.nc.variables`, :mod:`ncsim.nc.sysvars`); a bare array name is only an argument
+  (for a VAR parameter), anything else done with it is an error;
+* ``ISAXIS(n)`` is 1 for the geometry axes 1..3; ``LN EXP MINVAL MAXVAL`` as their names say,
+  ``BOUND(min, max, x)`` limits x to [min, max].
 
 Every error is an :class:`~ncsim.errors.NcSemanticError` at the column of the offending node.
 """
@@ -20,17 +24,30 @@ import math
 from typing import Callable, Protocol
 
 from ncsim.nc import program as P
-from ncsim.errors import NcSemanticError, NcUnsupportedError
+from ncsim.errors import NcSemanticError
 
 Value = float | str
 
 
 class Scope(Protocol):
-    """What an expression can read: R parameters and (local) user variables."""
+    """What an expression can read: R parameters, user variables, array elements, system
+    variables (the last two get the block's context to evaluate indices and locate errors)."""
 
     def read_r(self, index: int) -> float: ...
 
     def read_var(self, name: str) -> Value | None: ...  # None: not defined
+
+    def read_elem(self, ctx, node) -> Value: ...
+
+    def read_sysvar(self, ctx, node) -> Value: ...
+
+
+class ArrayRef(str):
+    """What a bare array name reads as: good only as a VAR argument."""
+
+    def __new__(cls, name: str):
+        obj = super().__new__(cls, name)
+        return obj
 
 
 class Where:
@@ -85,6 +102,12 @@ FUNCTIONS: dict[str, tuple[int, Callable[..., float]]] = {
     "POT": (1, lambda x: x * x),
     "TRUNC": (1, lambda x: float(math.trunc(x))),
     "ROUND": (1, _round_half_away),
+    "LN": (1, _domain(lambda x: x > 0.0, math.log, "LN of a number <= 0")),
+    "EXP": (1, math.exp),
+    "MINVAL": (2, min),
+    "MAXVAL": (2, max),
+    "BOUND": (3, lambda lo, hi, x: max(lo, min(hi, x))),
+    "ISAXIS": (1, lambda n: 1.0 if n in (1.0, 2.0, 3.0) else 0.0),
 }
 
 
@@ -111,10 +134,13 @@ def evaluate(expr, scope: Scope, where: Where) -> Value:
         value = scope.read_var(expr.name)
         if value is None:
             raise where.error(f"undefined variable {expr.name} (DEF it first)", expr.col)
+        if isinstance(value, ArrayRef):
+            raise where.error(f"array {expr.name} needs an index here ({expr.name}[i])", expr.col)
         return value
+    if isinstance(expr, P.Elem):
+        return scope.read_elem(where, expr)
     if isinstance(expr, P.SysVar):
-        raise where.error(f"reading system variable {expr.name} is not simulated", expr.col,
-                          NcUnsupportedError)
+        return scope.read_sysvar(where, expr)
     if isinstance(expr, P.Unary):
         return _unary(expr, evaluate(expr.operand, scope, where), where)
     if isinstance(expr, P.BinOp):
@@ -124,6 +150,16 @@ def evaluate(expr, scope: Scope, where: Where) -> Value:
     if isinstance(expr, P.Func):
         return _finite(_call(expr, scope, where), expr.col, where)
     raise where.error(f"cannot evaluate {type(expr).__name__}", getattr(expr, "col", 0))
+
+
+def evaluate_arg(expr, scope: Scope, where: Where) -> Value:
+    """A call argument: like ``evaluate``, but a bare array name gives its ArrayRef (it can
+    only be bound to a VAR parameter)."""
+    if isinstance(expr, P.Var):
+        value = scope.read_var(expr.name)
+        if isinstance(value, ArrayRef):
+            return value
+    return evaluate(expr, scope, where)
 
 
 def evaluate_number(expr, scope: Scope, where: Where, what: str) -> float:

@@ -75,23 +75,25 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path as FsPath
 
-from ncsim.errors import NcWarning
+from ncsim.errors import NcError, NcWarning
 from ncsim.machine import MachineSpec
 from ncsim.nc import program as P
 from ncsim.nc.calls import Calls
 from ncsim.nc.columns import ColumnPath
-from ncsim.nc.context import (BlockContext, InterpreterState, PathOutput, RecordedCall,
-                              WordContext)
+from ncsim.nc.context import (BlockContext, InterpreterState, InterpretOptions, PathOutput,
+                              RecordedCall, WordContext)
 from ncsim.nc.expr import Where
 from ncsim.nc.flow import Flow, split_units
 from ncsim.nc.modal import COMPRESSOR_COMMANDS, DYNAMIC_COMMANDS
 from ncsim.nc.moves import Moves
 from ncsim.nc.parse import parse_text, read_program_text
 from ncsim.nc.settings import Settings
+from ncsim.nc.variables import load_definitions
 from ncsim.nc.words import Words
 from ncsim.path import Path
 
-__all__ = ["InterpretResult", "Interpreter", "RecordedCall", "interpret_file", "interpret_text"]
+__all__ = ["InterpretOptions", "InterpretResult", "Interpreter", "RecordedCall",
+           "interpret_file", "interpret_text"]
 
 VECTOR_MIN_ROWS = 8          # shorter plain runs are cheaper block by block
 
@@ -103,6 +105,12 @@ class InterpretResult:
     blocks_executed: int
     recorded: tuple[RecordedCall, ...] = ()
     complete: bool = True   # ended by M2/M30 (or M17/RET), not by running off its last line
+    approximations: tuple[tuple[str, int, str], ...] = ()   # (kind, times, reason)
+
+    @property
+    def approximate(self) -> bool:
+        """Whether something that can change the time was not simulated (see approximations)."""
+        return bool(self.approximations)
 
     @property
     def cycle832_calls(self) -> tuple[RecordedCall, ...]:
@@ -120,39 +128,44 @@ class InterpretResult:
 
 
 def interpret_text(text: str, file: str = "<string>", machine: MachineSpec | None = None, *,
-                   block_budget: int = 10_000_000,
+                   block_budget: int | None = None,
                    setup_offsets: dict[str, tuple[float, float, float]] | None = None,
                    fast: bool = True, skip_blocks: bool = False,
-                   search_dir: str | FsPath | None = None) -> InterpretResult:
-    """Interpret program text. ``fast=False`` sends every line through the Lark grammar.
+                   search_dir: str | FsPath | None = None, subprograms=(),
+                   missing_subprograms: str = "error", definitions=()) -> InterpretResult:
+    """Interpret program text. ``fast=False`` sends every line through the Lark grammar and
+    evaluates every block with the reference interpreter.
 
-    ``machine`` gives work offsets and circle tolerances; ``setup_offsets`` (``{"G54": (x, y,
-    z)}``) override its offsets. ``skip_blocks`` activates block skip (``/`` blocks are not
-    executed). Subprograms called by name are looked up as PROCs in the same text, then as
-    ``NAME.SPF``/``NAME.MPF`` files in ``search_dir``.
+    ``machine`` gives work offsets, circle tolerances and system variables; ``setup_offsets``
+    (``{"G54": (x, y, z)}``) override its offsets. ``skip_blocks`` activates block skip (``/``
+    blocks are not executed). Subprograms called by name are looked up as PROCs in the same
+    text, then as files in ``search_dir`` and the ``subprograms`` folders (see
+    :class:`~ncsim.nc.context.InterpretOptions` for these and the other options).
     """
+    options = InterpretOptions(subprogram_dirs=tuple(FsPath(d) for d in subprograms),
+                               missing_subprograms=missing_subprograms,
+                               definitions=tuple(FsPath(d) for d in definitions),
+                               block_budget=block_budget, fast=fast, skip_blocks=skip_blocks)
+    interp = Interpreter(machine, options, setup_offsets, search_dir)
     program = parse_text(text, file, fast=fast)
-    interp = Interpreter(machine, block_budget, setup_offsets, fast, skip_blocks, search_dir)
     return interp.run(program)
 
 
-def interpret_file(path: str | FsPath, machine: MachineSpec | None = None, *,
-                   block_budget: int = 10_000_000,
-                   setup_offsets: dict[str, tuple[float, float, float]] | None = None,
-                   fast: bool = True, skip_blocks: bool = False) -> InterpretResult:
-    """Interpret a program file; subprogram files are looked up next to it."""
+def interpret_file(path: str | FsPath, machine: MachineSpec | None = None, **options
+                   ) -> InterpretResult:
+    """Interpret a program file; subprogram files are looked up next to it first (the keyword
+    options are those of :func:`interpret_text`)."""
     p = FsPath(path)
-    return interpret_text(read_program_text(p), str(path), machine, block_budget=block_budget,
-                          setup_offsets=setup_offsets, fast=fast, skip_blocks=skip_blocks,
-                          search_dir=p.parent)
+    return interpret_text(read_program_text(p), str(path), machine, search_dir=p.parent,
+                          **options)
 
 
 class Interpreter:
     """Runs a parsed program: the call-stack loop and the order of one block."""
 
-    def __init__(self, machine, budget, setup_offsets, fast, skip_blocks, search_dir) -> None:
-        self.state = state = InterpreterState(machine, budget, setup_offsets, fast, skip_blocks,
-                                              search_dir)
+    def __init__(self, machine, options: InterpretOptions, setup_offsets=None,
+                 search_dir=None) -> None:
+        self.state = state = InterpreterState(machine, options, setup_offsets, search_dir)
         self.flow = Flow(state)
         self.calls = Calls(state)
         self.words = Words(state)
@@ -162,11 +175,48 @@ class Interpreter:
         self.ran_off_end = False     # the main program ran past its last line
 
     def run(self, program: P.Program) -> InterpretResult:
+        """Interpret ``program``. An error raised on the way carries the warnings collected
+        until then (``error.warnings``), so that a caller can show what led to it."""
         state = self.state
         state.out = PathOutput(program.file)
-        units = split_units(program, FsPath(program.file).stem.upper() or "MAIN")
-        self.calls.add_units(units[1:])
-        self.calls.push(units[0], (), 1)
+        self.calls.main_file = program.file
+        state.add_lines(program.n_lines)
+        try:
+            for definitions in state.options.definitions:
+                load_definitions(state, definitions)
+            units = split_units(program, FsPath(program.file).stem.upper() or "MAIN")
+            self.calls.add_units(units[1:])
+            self.calls.push(units[0], (), 1)
+            self._loop()
+        except NcError as exc:
+            exc.warnings = state.warnings.result()
+            raise
+        state.out.flush()
+        builder = state.out.builder
+        builder.end_dwell_s = state.st.pending_dwell_s
+        path = builder.build()
+        procs_only = len(units) > 1 and not any(_has_content(i) for i in units[0].items)
+        complete = state.ended or not self.ran_off_end or procs_only
+        self._warn_empty(program, path.n, complete, [u.name for u in units[1:]] * procs_only)
+        return InterpretResult(path, state.warnings.result(), state.blocks, tuple(state.recorded),
+                               complete, state.warnings.approximations())
+
+    def _warn_empty(self, program: P.Program, n_segments: int, complete: bool,
+                    procs: list[str]) -> None:
+        """An export cut short or empty is a warning, never a silent zero cycle time; so is a
+        file of PROCs that nothing calls (a subprogram run on its own)."""
+        warnings = self.state.warnings
+        if procs:
+            warnings.add("end", f"the file only defines PROC {', '.join(procs)}: nothing here "
+                         "calls it (run the program that does)", program.file, 0)
+        if not complete:
+            warnings.add("end", "the program ends without M30, M2 or M17 (truncated?)",
+                         program.file, program.n_lines)
+        if n_segments == 0:
+            warnings.add("motion", "no motion: the program moves no axis", program.file, 0)
+
+    def _loop(self) -> None:
+        state = self.state
         try:
             while state.stack and not state.ended:
                 self.step(state.stack[-1])
@@ -200,11 +250,12 @@ class Interpreter:
     def step(self, fr) -> None:
         """Execute the next item of the frame ``fr``: a block, or a run of plain blocks."""
         items = fr.unit.items
-        if fr.pc >= len(items):
+        pc = fr.pc
+        if pc >= len(items):
             self.ran_off_end = self.ran_off_end or len(self.state.stack) == 1
             self.calls.return_()
             return
-        item = items[fr.pc]
+        item = items[pc]
         if isinstance(item, P.PlainRun):
             run = item.slice(fr.row) if fr.row else item
             fr.row = 0
@@ -214,13 +265,15 @@ class Interpreter:
         state = self.state
         state.line = item.line
         state.count(fr.unit.file, item.line)
-        fr.pc += 1
+        fr.pc = pc + 1
         if state.skip_blocks and item.skip_level is not None:
             return
         if item.statement is not None:
             self.flow.execute(BlockContext(state, fr, item.line), item.statement)
         else:
             self.exec_block(fr, item)
+        if fr.section_ends and fr.section_ends[-1][0] == pc and fr.pc == pc + 1:
+            fr.pc = fr.section_ends.pop()[1]      # end of a REPEAT section: back to its REPEAT
 
     def exec_run(self, fr, run: P.PlainRun) -> None:
         """A run of plain blocks: as columns when it can, else block by block."""
@@ -228,10 +281,17 @@ class Interpreter:
             return
         count = self.state.count
         file = fr.unit.file
+        stack = self.state.stack
         for i in range(len(run)):
             block = run.block(i)
             count(file, block.line)
             self.exec_block(fr, block)
+            if stack[-1] is not fr and i + 1 < len(run):
+                # a modal call (MCALL) was pushed: it runs first, then the rest of this run
+                item = fr.unit.items[fr.pc - 1]
+                fr.pc -= 1
+                fr.row = len(item) - len(run) + i + 1
+                return
 
     def exec_block(self, fr, block: P.Block) -> None:
         """One block of words, in the order of steps 1 to 4 (module docstring)."""
@@ -245,12 +305,20 @@ class Interpreter:
         gcodes = ctx.gcodes
         if "motion" in gcodes:                         # 4. motion or dwell, calls, end
             self.state.st.motion = gcodes["motion"][0]
+        moved = False
         if "dwell" in gcodes:
             self.moves.dwell(ctx)
+        elif "pole" in gcodes:
+            self.moves.pole(ctx)
         elif frame_cmd is None:
-            self.moves.motion(ctx)
-        self.calls.block_calls(ctx)
-        self.calls.program_end(ctx)
+            moved = self.moves.motion(ctx)
+        calls = self.calls
+        if any(name == "MCALL" for name, _ in ctx.commands):
+            calls.set_modal_call(ctx, next(c for n, c in ctx.commands if n == "MCALL"))
+        calls.block_calls(ctx)
+        calls.program_end(ctx)
+        if moved and self.state.modal_call is not None:
+            calls.modal_call_after_motion(ctx)
 
 
 def _has_content(item) -> bool:

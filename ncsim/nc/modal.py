@@ -15,7 +15,8 @@ cp mode (10)              G60 G64 G641 G642 G643 G644 G645                simula
 stop window (12)          G601 G602 G603                                  recorded per segment
 units (13)                G70 G71 G700 G710                               simulated
 distance (14)             G90 G91                                         simulated
-feed type (15)            G94; G93 G95 G96 G961 G97 G971 G931 G942 G952   G94 only, others error
+feed type (15)            G94 G95 G97 G971; G93 G96 G961 G931 G942 ..    G94 G95 G97 G971, others error
+pole (3, non-modal)       G110 G111 G112 (with AP= RP=)                   simulated
 tool radius comp (7)      G40; G41 G42                                    G41/G42 warned
 corner behaviour (18)     G450 G451                                       no effect without G41/G42
 working area (3)          G25 G26                                         warned
@@ -59,7 +60,9 @@ G_CODES: dict[int, tuple[str, int]] = {
     601: ("stop_window", 601), 602: ("stop_window", 602), 603: ("stop_window", 603),
     70: ("units", 70), 71: ("units", 71), 700: ("units", 700), 710: ("units", 710),
     90: ("distance", 90), 91: ("distance", 91),
-    94: ("feed_type", 94),
+    94: ("feed_type", 94), 95: ("feed_type", 95), 97: ("feed_type", 97),
+    971: ("feed_type", 971),
+    110: ("pole", 110), 111: ("pole", 111), 112: ("pole", 112),
     450: ("corner", 450), 451: ("corner", 451),
     25: ("limits", 25), 26: ("limits", 26),
 }
@@ -67,19 +70,19 @@ G_CODES.update({code: ("settable", code) for code in range(505, 600)})
 
 # Real 840D G functions that change what a path means and that ncsim does not simulate.
 G_UNSUPPORTED: dict[int, str] = {
-    93: "inverse-time feed G93", 95: "feed per revolution G95", 96: "constant cutting rate G96",
-    961: "constant cutting rate G961", 97: "constant spindle speed G97 (with G95)",
-    971: "G971", 931: "travel-time feed G931", 942: "G942", 952: "G952", 962: "G962",
+    93: "inverse-time feed G93", 96: "constant cutting rate G96 (turning)",
+    961: "constant cutting rate G961 (turning)", 931: "travel-time feed G931", 942: "G942",
+    952: "G952", 962: "constant cutting rate G962 (turning)",
     972: "G972", 973: "G973",
     5: "oblique plunge-cutting G5", 7: "G7", 33: "thread cutting G33", 34: "G34", 35: "G35",
     331: "rigid tapping G331", 332: "rigid tapping G332", 63: "tapping G63",
     74: "reference point approach G74", 75: "fixed point approach G75",
-    110: "polar coordinates G110", 111: "polar coordinates G111", 112: "polar coordinates G112",
     147: "soft approach G147", 148: "soft retract G148", 247: "G247", 248: "G248",
     347: "G347", 348: "G348", 340: "G340", 341: "G341", 810: "G810", 811: "G811",
 }
 
 INCH_FEED = {700}
+PER_REVOLUTION = (95, 97)    # feed types whose F is per spindle revolution (G97: as G95)
 MM_PER_INCH_CODES = {70: MM_PER_INCH, 700: MM_PER_INCH, 71: 1.0, 710: 1.0}
 
 ACCEL_COMMANDS = {"SOFT": SOFT, "BRISK": BRISK, "DRIVE": DRIVE}

@@ -12,7 +12,15 @@ data", "Path action"):
 * circle end-point monitoring: |r_end - r_start| <= max(MD21000 $MC_CIRCLE_ERROR_CONST,
   MD21010 $MC_CIRCLE_ERROR_FACTOR * r_start);
 * SUPA/G53/G153 suppress the frames for one block (:mod:`ncsim.nc.frames`), MIRROR reverses arcs;
-* G4 F<s> dwells seconds, G4 S<n> spindle revolutions; it stops the path.
+* G4 F<s> dwells seconds, G4 S<n> spindle revolutions; it stops the path;
+* polar coordinates (Programming Manual Fundamentals, "Polar coordinates (G110, G111, G112, AP,
+  RP)"): ``G111 X Y`` sets the pole in the workpiece system, ``G110`` relative to the last
+  programmed position, ``G112`` relative to the last pole (with ``AP= RP=`` instead of X Y, in
+  polar coordinates about that reference); without a pole the workpiece origin is the pole.
+  ``G0/G1 AP= RP=`` moves to the point at angle AP (degrees from the plane's first axis towards
+  its second) and radius RP about the pole, ``G2/G3 AP= RP=`` along the circle about the pole;
+  AP and RP are modal, ``AP=IC(..)``/``RP=IC(..)`` add to the last ones; the plane's third axis
+  may be programmed with them.
 
 A motion block whose end equals its start makes no segment (a full circle does); so does a
 line shorter than ``MIN_LINE_MM`` (1e-9 mm, far below the 840D's position resolution MD10200
@@ -140,10 +148,14 @@ class Moves:
         self.state = state
         self.st = state.st
 
-    def motion(self, ctx) -> None:
+    def motion(self, ctx) -> bool:
+        """The block's motion; True when it programs path motion (what MCALL follows)."""
         st = self.st
+        if ctx.polar:
+            self._polar_target(ctx)
         arc_words = [k for k in _ARC_WORDS if k in ctx.values]
         motion = st.motion
+        programmed = bool(ctx.axes)
         if motion in (0, 1):
             extra = list(ctx.centre) + list(ctx.inter) + arc_words
             if extra:
@@ -151,19 +163,94 @@ class Moves:
                 raise ctx.error(f"{extra[0]} is only allowed with a circle (G2/G3/CIP)", col)
             if ctx.axes:
                 self._linear(ctx, motion == 0)
-            return
+            return programmed
         if motion in (2, 3):
             if ctx.inter:
                 key = next(iter(ctx.inter))
                 raise ctx.error(f"{key}= is only allowed with CIP", ctx.inter[key][2])
             if ctx.axes or ctx.centre or arc_words:
                 self._arc(ctx)
-            return
+            return programmed
         if ctx.axes or ctx.inter or ctx.centre or arc_words:
             if motion == CIP:
                 self._cip(ctx)
             else:
                 self._ct(ctx)
+        return programmed
+
+    # ---- polar coordinates ---------------------------------------------------------------------
+
+    def _polar_values(self, ctx, base_ap: float, base_rp: float) -> tuple[float, float]:
+        ap, rp = base_ap, base_rp
+        if "AP" in ctx.polar:
+            value, mode, _ = ctx.polar["AP"]
+            ap = base_ap + value if mode == "IC" else value
+        if "RP" in ctx.polar:
+            value, mode, col = ctx.polar["RP"]
+            rp = base_rp + value if mode == "IC" else value
+            if rp < 0.0:
+                raise ctx.error(f"RP= must not be negative, got {format_value(rp)}", col)
+        return ap, rp
+
+    def _plane_point(self, centre: list, ap: float, rp_mm: float) -> list:
+        e1, e2, _ = PLANE_AXES[self.st.plane]
+        point = list(centre)
+        a = math.radians(ap)
+        point[e1] = centre[e1] + rp_mm * math.cos(a)
+        point[e2] = centre[e2] + rp_mm * math.sin(a)
+        return point
+
+    def _polar_target(self, ctx) -> None:
+        """AP= RP=: the end point (and for G2/G3 the centre, the pole) as absolute words."""
+        st, state = self.st, self.state
+        e1, e2, _ = PLANE_AXES[st.plane]
+        for axis in (e1, e2):
+            if AXES[axis] in ctx.axes:
+                raise ctx.error(f"{AXES[axis]} together with polar coordinates (AP=/RP=) in one "
+                                f"block", ctx.axes[AXES[axis]][2])
+        if st.motion not in (0, 1, 2, 3):
+            col = next(iter(ctx.polar.values()))[2]
+            raise ctx.error("polar coordinates need G0, G1, G2 or G3", col)
+        ap, rp = self._polar_values(ctx, *state.polar)
+        state.polar = [ap, rp]
+        scale = st.length_scale
+        pole = state.pole_wcs or [0.0, 0.0, 0.0]
+        end = self._plane_point(pole, ap, rp * scale)
+        col = next(iter(ctx.polar.values()))[2]
+        for axis in (e1, e2):
+            ctx.axes[AXES[axis]] = (end[axis] / scale, "AC", col)
+        if st.motion in (2, 3):
+            if ctx.centre or any(k in ctx.values for k in _ARC_WORDS):
+                raise ctx.error("a circle in polar coordinates takes no I J K, CR= or AR= (its "
+                                "centre is the pole)", col)
+            for axis in (e1, e2):
+                ctx.centre[CENTRE[axis]] = (pole[axis] / scale, "AC", col)
+
+    def pole(self, ctx) -> None:
+        """G110/G111/G112: a new pole (no motion)."""
+        st, state = self.st, self.state
+        code, col = ctx.gcodes["pole"]
+        if "motion" in ctx.gcodes or ctx.centre or ctx.inter:
+            raise ctx.error(f"G{code} sets the pole: no motion in its block", col)
+        e1, e2, _ = PLANE_AXES[st.plane]
+        scale = st.length_scale
+        last_pole = state.pole_wcs or [0.0, 0.0, 0.0]
+        reference = {110: list(st.pos_wcs), 111: [0.0, 0.0, 0.0], 112: list(last_pole)}[code]
+        if ctx.polar:
+            if ctx.axes:
+                raise ctx.error(f"G{code}: the pole either in X Y Z or in AP= RP=", col)
+            ap, rp = self._polar_values(ctx, 0.0, 0.0)
+            pole = self._plane_point(reference, ap, rp * scale)
+        else:
+            pole = list(reference)
+            for axis in (e1, e2):
+                name = AXES[axis]
+                if name in ctx.axes:
+                    value, mode, acol = ctx.axes[name]
+                    if mode is not None:
+                        raise ctx.error(f"{mode}() is not allowed in a G{code} block", acol)
+                    pole[axis] = reference[axis] + value * scale
+        state.pole_wcs = pole
 
     def dwell(self, ctx) -> None:
         """G4 F<seconds> or G4 S<revolutions>, alone (without motion) in its block."""
@@ -193,6 +280,10 @@ class Moves:
     def _require_feed(self, ctx) -> None:
         if math.isnan(self.st.feed_mm_s):
             name = MOTION_NAMES[self.st.motion]
+            state = self.state
+            if state.feed_type in (95, 97) and state.f_value > 0.0:
+                raise ctx.error(f"{name} with feed per revolution (G{state.feed_type}) needs the "
+                                f"spindle turning: S and M3/M4", _motion_col(ctx))
             raise ctx.error(f"{name} without a feed: no F programmed yet", _motion_col(ctx))
 
     def _targets(self, ctx, suppressed: bool):

@@ -5,6 +5,11 @@ LALR parser and an inline transformer that builds :mod:`ncsim.nc.program` nodes.
 ASCII letters outside strings and ``;`` comments are upper-cased: the 840D does not
 distinguish case there.
 
+Before Lark, a blank between a name and its ``(`` is moved inside the parenthesis for the PROC
+statement (``PROC CYCLE82 (REAL RTP, ...)``, as Siemens' own cycles write it) and for the calls
+real programs write that way (``MSG ("...")``, ``SETAL (61101)``, ``CYCLE82 (...)``): column
+numbers stay those of the text, and elsewhere ``NAME (text)`` keeps meaning a word and a comment.
+
 ``parse_text(text, fast=True)`` first lets :mod:`ncsim.nc.fastparse` read the plain lines
 (``N.. G0..G3 X Y Z I J K F``) as columns and gives only the other lines to Lark;
 ``fast=False`` gives every line to Lark. Both yield the same blocks (property-tested).
@@ -14,6 +19,7 @@ Every syntax error is one :class:`~ncsim.errors.NcSyntaxError` at ``FILE:LINE:CO
 from __future__ import annotations
 
 import codecs
+import re
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path as FsPath
@@ -29,8 +35,16 @@ from ncsim.errors import NcError, NcSyntaxError
 ADDRESSES = frozenset({
     "X", "Y", "Z", "A", "B", "C", "U", "V", "W", "I", "J", "K", "F", "S", "T", "D", "M", "H",
     "L", "P", "N", "G", "E", "Q", "CR", "AR", "TURN", "ADIS", "ADISPOS", "RPL", "AP", "RP", "SF",
-    "CTOL", "OTOL",
+    "CTOL", "OTOL", "SPOS", "SPOSA", "LIMS",
 })
+# Addresses that take an index: ``AX[_Z]=`` (indirect axis), ``IP[_Z]=`` (its interpolation
+# parameter), ``SPOS[2]=``, ``LIMS[1]=`` ...; any other ``NAME[i]=`` is an array element.
+INDEXED_ADDRESSES = frozenset({"AX", "IP", "SPOS", "SPOSA", "LIMS", "S", "M", "T", "H"})
+
+# "NAME (" that is a call, not a word and a comment: the PROC statement and the calls that real
+# programs write with a blank (Siemens' cycle sources, CYCLE_KONUS-like shop cycles).
+_CALL_GAP = re.compile(r"(?<![A-Z0-9_$])(PROC[ \t]+[A-Z_][A-Z0-9_]*|MSG|SETAL|SETMS|"
+                       r"CYCLE[0-9]+|POCKET[0-9]|SLOT[0-9]|HOLES[0-9]|LONGHOLE)([ \t]+)\(")
 
 _UPPER = {c: c - 32 for c in range(ord("a"), ord("z") + 1)}
 
@@ -49,6 +63,32 @@ def upper_code(line: str) -> str:
             break
         out.append(ch if in_string else ch.translate(_UPPER))
     return "".join(out)
+
+
+def join_call_gaps(code: str) -> str:
+    """``MSG ("x")`` -> ``MSG( "x")``: the blank moves inside the parenthesis (same length, so
+    every column stays), for the names of :data:`_CALL_GAP`, outside strings and comments."""
+    if "(" not in code:
+        return code
+    out = code
+    for m in _CALL_GAP.finditer(code):
+        before = code[:m.start()]
+        if before.count('"') % 2 or _in_comment(before):
+            continue
+        gap = m.group(2)
+        out = out[:m.end(1)] + "(" + gap + out[m.end():]
+    return out
+
+
+def _in_comment(before: str) -> bool:
+    """Whether a ``;`` outside strings precedes the end of ``before``."""
+    in_string = False
+    for ch in before:
+        if ch == '"':
+            in_string = not in_string
+        elif ch == ";" and not in_string:
+            return True
+    return False
 
 
 class _NumberTooLarge(Exception):
@@ -91,6 +131,13 @@ class _ToProgram(Transformer):
         index = children[1] if len(children) > 1 else ()
         return P.SysVar(str(tok), index, tok.column)
 
+    def element(self, children):
+        tok, index = children
+        return P.Elem(str(tok), index, tok.column)
+
+    def init_list(self, children):
+        return P.InitList(tuple(children), _col(children[0]))
+
     def index(self, children):
         (args,) = children
         return args
@@ -130,6 +177,13 @@ class _ToProgram(Transformer):
             return P.Word(name, value, tok.column)
         return P.Assign(P.Var(name, tok.column), value, tok.column)
 
+    def word_index_assign(self, children):
+        tok, index, value = children
+        name = str(tok)
+        if name in INDEXED_ADDRESSES:
+            return P.IndexedWord(name, index, value, tok.column)
+        return P.Assign(P.Elem(name, index, tok.column), value, tok.column)
+
     def sysvar_assign(self, children):
         tok = children[0]
         index = children[1] if len(children) == 3 else ()
@@ -167,6 +221,51 @@ class _ToProgram(Transformer):
         kw, cond, kind, target = children
         return P.IfGoto(cond, P.Goto(str(kind), target, kind.column), kw.column)
 
+    def if_gotos(self, children):
+        if len(children) == 1:
+            return children[0]
+        return P.IfGotos(tuple(children), children[0].col)
+
+    def repeat_count(self, children):
+        name, value = children
+        if name != "P":
+            raise _BadWord(f"{name}= after REPEAT: the count is P=", name.column)
+        return value
+
+    def repeat_section(self, children):
+        kw = children[0]
+        targets = [c for c in children[1:] if isinstance(c, P.Target)]
+        count = next((c for c in children[1:] if c is not None and not isinstance(c, P.Target)),
+                     None)
+        end = targets[1] if len(targets) > 1 else None
+        return P.RepeatSection(targets[0], end, count, False, kw.column)
+
+    def repeat_block(self, children):
+        kw, target = children[0], children[1]
+        count = children[2] if len(children) > 2 else None
+        return P.RepeatSection(target, None, count, True, kw.column)
+
+    def case_value(self, children):
+        if len(children) == 1 and children[0] is not None and children[0].type == "STRING":
+            return str(children[0])[1:-1]
+        sign, number = (children if len(children) == 2 else (None, children[-1]))
+        value = _number(number, number.column)
+        return -value if sign is not None and sign == "-" else value
+
+    def case_item(self, children):
+        value, kind, target = children
+        return (value, P.Goto(str(kind), target, kind.column))
+
+    def case_default(self, children):
+        _kw, kind, target = children
+        return P.Goto(str(kind), target, kind.column)
+
+    def case(self, children):
+        kw, expr, _of, *rest = children
+        cases = tuple(c for c in rest if isinstance(c, tuple))
+        default = next((c for c in rest if isinstance(c, P.Goto)), None)
+        return P.Case(expr, cases, default, kw.column)
+
     def if_(self, children):
         kw, cond = children
         return P.If(cond, kw.column)
@@ -193,6 +292,9 @@ class _ToProgram(Transformer):
     def dims(self, children):
         return tuple(int(float(c)) for c in children)
 
+    def scope(self, children):
+        return str(children[0])
+
     def def_var(self, children):
         name = children[0]
         dims, init = (), None
@@ -204,9 +306,11 @@ class _ToProgram(Transformer):
         return P.DefVar(str(name), dims, init, name.column)
 
     def def_(self, children):
-        kw, type_tok = children[0], children[1]
-        variables = tuple(c for c in children[2:] if isinstance(c, P.DefVar))
-        return P.Def(str(type_tok), variables, kw.column)
+        kw, rest = children[0], children[1:]
+        scope = next((c for c in rest if isinstance(c, str) and not isinstance(c, Token)), None)
+        type_tok = next(c for c in rest if isinstance(c, Token) and c.type == "NAME")
+        variables = tuple(c for c in rest if isinstance(c, P.DefVar))
+        return P.Def(str(type_tok), variables, kw.column, scope)
 
     def param(self, children):
         by_ref = isinstance(children[0], Token) and children[0].type == "VAR"
@@ -259,6 +363,17 @@ class _ToProgram(Transformer):
         return children[0]
 
 
+class _BadWord(Exception):
+    def __init__(self, message: str, col: int):
+        super().__init__(message)
+        self.message = message
+        self.col = col
+
+
+def _col(node) -> int:
+    return getattr(node, "col", 0) or getattr(node, "column", 0)
+
+
 def _is_rparam(tok: str) -> bool:
     return len(tok) > 1 and tok[0] == "R" and tok[1:].isdigit()
 
@@ -304,13 +419,15 @@ def _syntax_error(exc: UnexpectedInput, text: str, file: str, line: int) -> NcSy
 
 def parse_block(text: str, line: int = 1, file: str = "<string>") -> P.Block:
     """Parse one line with the Lark grammar into a Block (NcSyntaxError on bad input)."""
-    code = upper_code(text)
+    code = join_call_gaps(upper_code(text))
     try:
         number, skip, label, items, statement = _lark().parse(code)
     except UnexpectedInput as exc:
         raise _syntax_error(exc, code, file, line) from None
     except _NumberTooLarge as exc:
         raise NcSyntaxError(f"number {exc.text[:20]}... is too large", file, line, exc.col) from None
+    except _BadWord as exc:
+        raise NcSyntaxError(exc.message, file, line, exc.col) from None
     except LarkError as exc:
         raise NcSyntaxError(f"cannot read block: {exc}", file, line, 1) from None
     return P.Block(line=line, number=number, skip_level=skip, label=label, items=items,

@@ -8,8 +8,9 @@ row ``i``; a property test holds the two paths to that.
 
 Every node keeps the 1-based column of its first character; the line is the block's.
 Expression nodes: :class:`Num`, :class:`Str`, :class:`Var` (user variable), :class:`RParam`
-(``R12``), :class:`SysVar` (``$...``), :class:`Unary`, :class:`BinOp` (arithmetic, comparison,
-logic, ``<<``), :class:`Func` (``SIN(..)``, ``AC(..)``).
+(``R12``), :class:`Elem` (array element ``A[I,J]``, indirect ``R[I]``), :class:`SysVar`
+(``$...``), :class:`Unary`, :class:`BinOp` (arithmetic, comparison, logic, ``<<``),
+:class:`Func` (``SIN(..)``, ``AC(..)``), :class:`InitList` (``DEF REAL A[3]=(1,2,3)``).
 """
 from __future__ import annotations
 
@@ -46,6 +47,23 @@ class RParam:
 
 
 @dataclass(frozen=True, slots=True)
+class Elem:
+    """An element of a user array ``A[I]``/``A[I,J]`` (or ``R[I]``, an indirect R parameter)."""
+
+    name: str
+    index: tuple     # of Expr
+    col: int
+
+
+@dataclass(frozen=True, slots=True)
+class InitList:
+    """``(v1, v2, ...)``: the values of an array definition ``DEF REAL A[3]=(1,2,3)``."""
+
+    values: tuple
+    col: int
+
+
+@dataclass(frozen=True, slots=True)
 class SysVar:
     name: str
     index: tuple
@@ -74,7 +92,7 @@ class Func:
     col: int
 
 
-Expr = Union[Num, Str, Var, RParam, SysVar, Unary, BinOp, Func]
+Expr = Union[Num, Str, Var, RParam, Elem, SysVar, Unary, BinOp, Func]
 
 
 # ---- block items ----------------------------------------------------------------------------
@@ -90,10 +108,21 @@ class Word:
 
 
 @dataclass(frozen=True, slots=True)
-class Assign:
-    """``R1=..``, ``_VAR=..`` or ``$SYSVAR=..``: a variable assignment."""
+class IndexedWord:
+    """An address with an index: ``AX[_Z]=..`` (indirect axis), ``IP[_Z]=..`` (its interpolation
+    parameter), ``SPOS[2]=..``, ``LIMS[1]=..`` (spindle n)."""
 
-    target: Union[Var, RParam, SysVar]
+    address: str
+    index: tuple     # of Expr
+    value: Expr
+    col: int
+
+
+@dataclass(frozen=True, slots=True)
+class Assign:
+    """``R1=..``, ``_VAR=..``, ``A[I]=..`` or ``$SYSVAR=..``: a variable assignment."""
+
+    target: Union[Var, RParam, Elem, SysVar]
     value: Expr
     col: int
 
@@ -115,7 +144,7 @@ class Call:
     col: int
 
 
-Item = Union[Word, Assign, Command, Call]
+Item = Union[Word, IndexedWord, Assign, Command, Call]
 
 
 # ---- control statements (alone in their block) ----------------------------------------------
@@ -143,6 +172,38 @@ class Goto:
 class IfGoto:
     cond: Expr
     goto: Goto
+    col: int
+
+
+@dataclass(frozen=True, slots=True)
+class IfGotos:
+    """Several conditional jumps in one block: the first whose condition holds jumps."""
+
+    jumps: tuple     # of IfGoto
+    col: int
+
+
+@dataclass(frozen=True, slots=True)
+class Case:
+    """``CASE expr OF 1 GOTOF A 2 GOTOF B DEFAULT GOTOF C``: jump to the first equal constant's
+    destination, else to DEFAULT's (none: go on with the next block)."""
+
+    expr: "Expr"
+    cases: tuple     # of (value, Goto)
+    default: "Goto | None"
+    col: int
+
+
+@dataclass(frozen=True, slots=True)
+class RepeatSection:
+    """``REPEAT START P=n`` (from START to this block), ``REPEAT START END P=n`` (between two
+    labels, or from START to ``ENDLABEL:`` when END is None and no section ends here),
+    ``REPEATB START P=n`` (the block START alone, ``block`` True)."""
+
+    start: Target
+    end: Target | None
+    count: "Expr | None"
+    block: bool
     col: int
 
 
@@ -193,6 +254,7 @@ class Def:
     type_name: str   # REAL, INT, BOOL, CHAR, STRING, AXIS, FRAME
     variables: tuple  # of DefVar
     col: int
+    scope: str | None = None   # NCK or CHAN: a global user variable (GUD definitions file)
 
 
 @dataclass(frozen=True, slots=True)
@@ -218,7 +280,8 @@ class Extern:
     col: int
 
 
-Statement = Union[Goto, IfGoto, If, While, For, Until, Keyword, Def, Proc, Extern]
+Statement = Union[Goto, IfGoto, IfGotos, Case, RepeatSection, If, While, For, Until, Keyword,
+                  Def, Proc, Extern]
 
 
 # ---- blocks and programs --------------------------------------------------------------------

@@ -10,6 +10,11 @@
 * F is mm/min (inch/min under G700), positive; S the spindle speed; D a tool offset (its
   compensation is not simulated, a warning when it changes); every M and H output stops the path
   (M0 M1 M6 with a warning, their time is not simulated);
+* feed type (group 15): G94 feed per minute; G95 feed per revolution, the path feed is F x S
+  (mm/rev x rev/min) while the spindle turns (M3/M4), G97 as G95 and G971 as G94 without a G96
+  before (Programming Manual Fundamentals, "Feedrate (G93, G94, G95, F)"); F keeps its value
+  when the feed type changes and is read in the new unit;
+* SBLOF/SBLON/DISPLOF/DISPLON (single block, display) and SETMS change nothing that takes time;
 * ADIS/ADISPOS are the G641 rounding distances, CTOL the contour tolerance of the compressor
   and of G642-G645 rounding, OTOL the orientation tolerance (recorded); a negative value deletes
   them (Job Planning "CTOL, OTOL, ATOL"); SOFT/BRISK/DRIVE change the acceleration mode (and
@@ -30,19 +35,22 @@ from ncsim.nc.expr import format_value
 from ncsim.nc.frames import Frame, mirroring, rotation_in_plane, rotation_rpy, scaling, translation
 from ncsim.nc.modal import (ACCEL_COMMANDS, COMMANDS_NOT_SIMULATED, COMPRESSOR_CODES,
                             COMPRESSOR_COMMANDS, DYNAMIC_COMMANDS, M_OPTIONAL_STOP, M_SPINDLE_CCW,
-                            M_SPINDLE_CW, M_SPINDLE_STOP, M_STOP, M_TOOL_CHANGE, UNSUPPORTED_MOTION)
+                            M_SPINDLE_CW, M_SPINDLE_STOP, M_STOP, M_TOOL_CHANGE, PER_REVOLUTION,
+                            UNSUPPORTED_MOTION)
 from ncsim.nc.words import AXES
 from ncsim.units import mm_min_to_mm_s
 
 _ZERO3 = (0.0, 0.0, 0.0)
 _FRAME_COMMANDS = ("TRANS", "ATRANS", "ROT", "AROT", "SCALE", "ASCALE", "MIRROR", "AMIRROR")
 _TRANSFORMATIONS = ("TRAORI", "TRANSMIT", "TRACYL", "TRAANG")
+_NO_TIME_COMMANDS = ("SBLOF", "SBLON", "DISPLOF", "DISPLON", "SETMS")
 
 # Command words a block handles itself; any other name is a subprogram call.
 HANDLED_COMMANDS = frozenset(
     set(ACCEL_COMMANDS) | set(COMPRESSOR_COMMANDS) | set(DYNAMIC_COMMANDS) | set(_TRANSFORMATIONS)
     | set(_FRAME_COMMANDS)
     | set(COMMANDS_NOT_SIMULATED) | set(UNSUPPORTED_MOTION)
+    | set(_NO_TIME_COMMANDS)
     | {"FFWON", "FFWOF", "STOPRE", "TRAFOOF", "FNORM", "CFC", "MCALL", "SUPA", "RET", "GOTOS"})
 
 
@@ -84,6 +92,8 @@ class Settings:
             st.stop_window = g["stop_window"][0]
         if "settable" in g:
             self._settable_frame(ctx, g["settable"])
+        if "feed_type" in g:
+            self.state.feed_type = g["feed_type"][0]
         if "radius_comp" in g:
             code, col = g["radius_comp"]
             if code != 40 and st.radius_comp != code:
@@ -97,6 +107,7 @@ class Settings:
     def _settable_frame(self, ctx, word) -> None:
         code, col = word
         st = self.st
+        self.state.settable_code = code
         if code == 500:
             st.settable_mm = _ZERO3
         else:
@@ -162,10 +173,12 @@ class Settings:
             st.compress_break = True
         values = ctx.values
         dwell = "dwell" in ctx.gcodes
+        state = self.state
         if "F" in values and not dwell:
             value, col = values["F"]
             if not value > 0.0:
                 raise ctx.error(f"feed F must be positive, got {format_value(value)}", col)
+            state.f_value = value
             st.feed_mm_s = mm_min_to_mm_s(value * st.feed_scale)
         if "S" in values and not dwell:
             value, col = values["S"]
@@ -197,6 +210,20 @@ class Settings:
         if "OTOL" in values:
             value = values["OTOL"][0]
             st.otol_deg = value if value >= 0.0 else math.nan
+        if state.feed_type in PER_REVOLUTION or "feed_type" in ctx.gcodes:
+            self._path_feed()
+
+    def _path_feed(self) -> None:
+        """The path feed of the feed type: F mm/min (G94, G971), or F mm/rev x S rev/min while
+        the spindle turns (G95, G97); NaN when there is none (the move is then an error)."""
+        st, state = self.st, self.state
+        if state.f_value <= 0.0:
+            st.feed_mm_s = math.nan
+        elif state.feed_type in PER_REVOLUTION:
+            rpm = st.spindle_rpm if st.spindle_on and st.spindle_rpm else 0.0
+            st.feed_mm_s = mm_min_to_mm_s(state.f_value * st.feed_scale * rpm) if rpm else math.nan
+        else:
+            st.feed_mm_s = mm_min_to_mm_s(state.f_value * st.feed_scale)
 
     def _m_function(self, ctx, code: int, col: int) -> None:
         st = self.st
@@ -243,8 +270,8 @@ class Settings:
                 ctx.warn(name, f"{name} ({COMMANDS_NOT_SIMULATED[name]}) is not simulated", col)
             elif name in UNSUPPORTED_MOTION:
                 raise ctx.unsupported(f"{name} ({UNSUPPORTED_MOTION[name]}) is not simulated", col)
-            elif name == "MCALL":
-                self._modal_call(ctx, col)
+            elif name == "SETMS":
+                self.state.master_spindle = 1
 
     # ---- CYCLE832 -----------------------------------------------------------------------------
 
@@ -264,12 +291,3 @@ class Settings:
         st.accel_mode = accel
         st.ffw = reset_ffw if expansion.feed_forward is None else expansion.feed_forward
         st.ctol_mm = tolerance_mm
-
-    def _modal_call(self, ctx, col: int) -> None:
-        if not ctx.calls:
-            ctx.record("MCALL", ())
-            return
-        name, args, _ = ctx.calls.pop(0)
-        ctx.record(f"MCALL {name}", args)
-        ctx.warn("MCALL", f"MCALL {name}: the modal call is not executed after the following "
-                 f"positioning blocks (only the positioning moves are simulated)", col)

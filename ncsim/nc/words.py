@@ -8,8 +8,13 @@
 * X Y Z, I J K and I1 J1 K1 may be ``AC(..)``/``IC(..)`` (absolute/incremental for this word);
   each address once per block, each value |v| < 1e9;
 * two G functions of one group in a block are an error (CIP and CT are motion commands);
-* A B C and U V W are read but not simulated (a warning); AP/RP polar coordinates are an error;
-* M, H, M<n>=, S<n>= are auxiliary functions (S<n>= is the speed of spindle n);
+* ``AX[axis]=`` is the word of the axis an AXIS value names (``AX[_Z]`` with ``_Z=$P_AXN3``),
+  ``IP[axis]=`` its interpolation parameter (I, J or K) (Job planning, "Indirect programming");
+* A B C and U V W are read but not simulated (a warning); AP= RP= are polar coordinates
+  (:mod:`ncsim.nc.moves`);
+* M, H, M<n>=, S<n>= are auxiliary functions (S<n>= is the speed of spindle n); SPOS= positions
+  the spindle (its time is not simulated: a warning); LIMS= limits the speed under G96;
+* ``A[i]=SET(...)``/``REP(v)`` fill an array from element i on (:mod:`ncsim.nc.variables`);
 * a control keyword (IF, GOTOF, ...) must begin its own block; an unknown address is an error.
 
 A new NC word is read in :meth:`Words.word` (into one of the context's tables: ``gcodes``,
@@ -20,6 +25,7 @@ setting) or :mod:`ncsim.nc.moves` (a motion); a new G function is an entry of
 from __future__ import annotations
 
 from ncsim.nc import program as P
+from ncsim.nc.expr import evaluate_arg
 from ncsim.nc.modal import CIP, CT, G_CODES, G_UNSUPPORTED, MOTION_NAMES
 
 AXES = ("X", "Y", "Z")
@@ -29,6 +35,9 @@ _ROTARY = ("A", "B", "C")
 _EXTRA_AXES = ("U", "V", "W")
 _VALUE_WORDS = ("CR", "AR", "TURN", "F", "S", "T", "D", "ADIS", "ADISPOS", "RPL", "L", "P", "CTOL",
                 "OTOL")
+_POLAR = ("AP", "RP")
+_INDIRECT_AXES = {"X": "X", "Y": "Y", "Z": "Z"}
+_INTERPOLATION = {"X": "I", "Y": "J", "Z": "K"}
 _KEYWORDS = ("IF", "ELSE", "ENDIF", "WHILE", "ENDWHILE", "FOR", "TO", "ENDFOR", "REPEAT", "UNTIL",
              "LOOP", "ENDLOOP", "GOTO", "GOTOF", "GOTOB", "GOTOC", "DEF", "PROC", "EXTERN")
 _AXIS_MODES = ("AC", "IC")
@@ -65,9 +74,13 @@ class Words:
                 self.word(ctx, item)
             elif isinstance(item, P.Command):
                 self._command_word(ctx, item)
+            elif isinstance(item, P.IndexedWord):
+                self._indexed_word(ctx, item)
             else:
-                args = tuple(None if a is None else ctx.eval(a) for a in item.args)
+                scope = self.vars
+                args = tuple(None if a is None else evaluate_arg(a, scope, ctx) for a in item.args)
                 ctx.calls.append((item.name, args, item.col))
+                ctx.call_exprs.append(item.args)
 
     def _assign_item(self, ctx, item: P.Assign) -> None:
         if isinstance(item.target, P.SysVar):
@@ -76,7 +89,37 @@ class Words:
                      f"not simulated", item.col)
             ctx.record(item.target.name, (value,))
             return
+        if isinstance(item.target, P.Elem) and isinstance(item.value, P.Func) and \
+                item.value.name in ("SET", "REP"):
+            self.vars.assign_elem(ctx, item.target, None, item.value)
+            return
         self.vars.assign(ctx, item.target, ctx.eval(item.value))
+
+    def _indexed_word(self, ctx, item: P.IndexedWord) -> None:
+        """AX[axis]= and IP[axis]= as the axis or centre word; SPOS[n]=, LIMS[n]=, S[n]=, ..."""
+        a = item.address
+        if a in ("AX", "IP"):
+            if len(item.index) != 1:
+                raise ctx.error(f"{a}[...] takes one axis", item.col)
+            axis = self._axis_name(ctx, item.index[0], a, item.col)
+            address = axis if a == "AX" else _INTERPOLATION.get(axis)
+            if address is None:
+                raise ctx.unsupported(f"{a}[{axis}]: only the geometry axes X, Y, Z are "
+                                      f"simulated", item.col)
+            self.word(ctx, P.Word(address, item.value, item.col))
+            return
+        for e in item.index:
+            ctx.eval(e)
+        self.word(ctx, P.Word(a, item.value, item.col))
+
+    def _axis_name(self, ctx, expr, what: str, col: int) -> str:
+        """The axis an index names: an AXIS variable's value or a bare X/Y/Z/A/B/C/U/V/W."""
+        if isinstance(expr, P.Var) and self.vars.entry(expr.name) is None and len(expr.name) == 1:
+            return expr.name
+        value = ctx.eval(expr)
+        if not isinstance(value, str) or not value:
+            raise ctx.error(f"{what}[...] needs an axis (an AXIS variable or X, Y, Z)", col)
+        return value
 
     def word(self, ctx, word: P.Word) -> None:
         a = word.address
@@ -103,8 +146,21 @@ class Words:
             return
         if a == "N":
             raise ctx.error("a block number N must begin the block", word.col)
-        if a in ("AP", "RP"):
-            raise ctx.unsupported(f"polar coordinates ({a}=) are not simulated", word.col)
+        if a in _POLAR:
+            mode, expr = _axis_mode(word.value)
+            if a in ctx.polar:
+                raise ctx.error(f"{a} programmed twice in one block", word.col)
+            ctx.polar[a] = (ctx.in_range(ctx.number(expr, a), a, word.col), mode, word.col)
+            return
+        if a in ("SPOS", "SPOSA"):
+            ctx.eval(_axis_mode(word.value, rotary=True)[1])
+            ctx.warn("spindle positioning", f"{a}: the time of spindle positioning is not "
+                     f"simulated", word.col)
+            ctx.record(a, ())
+            return
+        if a == "LIMS":
+            ctx.record("LIMS", (ctx.number(word.value, a),))
+            return
         if a in _VALUE_WORDS:
             value = ctx.eval(word.value)
             if isinstance(value, str) and a != "T":
