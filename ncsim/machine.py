@@ -10,6 +10,8 @@ See ``machines/mikron.toml`` for the reference file and README "Machine file" fo
 """
 from __future__ import annotations
 
+import math
+import re
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path as FsPath
@@ -142,6 +144,8 @@ class MachineSpec:
     #: values accepted but unusual (likely in the wrong unit), from the file's reader
     warnings: tuple[ConfigWarning, ...] = field(default=(), compare=False)
     cycle832: Cycle832Spec = field(default_factory=Cycle832Spec)
+    #: values of system variables programs read (``"$AN_NCK_VERSION"``, ``"$MA_X[Z]"``)
+    system_variables: tuple[tuple[str, float | str], ...] = ()
 
     def axis(self, name: str) -> AxisSpec:
         for a in self.axes:
@@ -295,7 +299,8 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
     """Validate a parsed machine file; every problem is collected into one
     :class:`~ncsim.errors.MachineSpecError`."""
     c = Problems(file, MachineSpecError)
-    c.unknown(data, "", {"machine", "axes", "ncu", "work_offsets", "structure", "cycle832"})
+    c.unknown(data, "", {"machine", "axes", "ncu", "work_offsets", "structure", "cycle832",
+                         "system_variables"})
     for (table, key), message in _REPLACED_KEYS.items():
         if isinstance(data.get(table), dict) and key in data[table]:
             c.add(f"{table}.{key}", message)
@@ -365,12 +370,35 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
         if v is not None:
             svalues[f] = v
 
+    sysvars = _system_variables(c, c.table(data, "system_variables"))
     c.raise_if_any()
     _unusual_values(c, {f"axes.{a}": atab[a] for a in AXIS_NAMES} | {"ncu": ntab})
     return MachineSpec(name=name, description=description, axes=tuple(axes),
                        ncu=NcuSpec(**ncu_values), source=file,
                        work_offsets_mm=tuple(offsets), structure=StructureSpec(**svalues),
-                       warnings=tuple(c.warnings), cycle832=cycle832)
+                       warnings=tuple(c.warnings), cycle832=cycle832,
+                       system_variables=sysvars)
+
+
+_SYSVAR_KEY = re.compile(r"^\$[A-Z_][A-Z0-9_]*(\[[A-Z0-9_]+(,[A-Z0-9_]+)*\])?$")
+
+
+def _system_variables(c: Problems, table: dict) -> tuple:
+    """``[system_variables]``: ``"$NAME" = value`` or ``"$NAME[I,J]" = value`` (a number or a
+    string), the values programs read (README "Machine file")."""
+    out = []
+    for key, value in table.items():
+        name = key.replace(" ", "").upper()
+        where = f'system_variables."{key}"'
+        if not _SYSVAR_KEY.match(name):
+            c.add(where, "expected a system variable name such as \"$MN_SCALING_VALUE_INCH\" or "
+                         "\"$MA_PARAMSET_CHANGE_ENABLE[Z]\"")
+        elif isinstance(value, bool) or not isinstance(value, (int, float, str)) or \
+                (isinstance(value, float) and not math.isfinite(value)):
+            c.add(where, "must be a finite number or a string")
+        else:
+            out.append((name, value if isinstance(value, str) else float(value)))
+    return tuple(out)
 
 
 def _unusual_values(c: Problems, tables: dict[str, dict]) -> None:
@@ -542,6 +570,10 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
             e = spec.cycle832.expansion(CYCLE832_TYPES.index(t))
             lines += ["", f"[cycle832.{t}]"]
             lines += [f"{k} = {_q(fmt(getattr(e, k)))}" for k, fmt in names.items()]
+    if spec.system_variables:
+        lines += ["", "[system_variables]"]
+        for key, value in spec.system_variables:
+            lines.append(f"{_q(key)} = {_q(value) if isinstance(value, str) else _f(value)}")
     if spec.structure.radial_compliance_mm_per_mm_s2:
         lines += ["", "[structure]",
                   f"radial_compliance_um_per_m_s2 = {_f(s2_to_um_per_m_s2(spec.structure.radial_compliance_mm_per_mm_s2))}"]

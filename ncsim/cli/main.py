@@ -539,9 +539,12 @@ def _plot_dt_s(sim, shown_s: float | None = None) -> float:
 @click.option("--allow-empty", is_flag=True,
               help="Pass a program without motion or without M30/M2/M17 (by default it fails: "
                    "an empty or truncated export).")
+@click.option("--strict", is_flag=True,
+              help="Fail when the time is approximate: something that can change it (a cycle "
+                   "without source, rotary axes, TRAORI, tool changes, ...) is not simulated.")
 @click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
 def check_cmd(program, machine_name, max_time_s, min_feed_ratio, max_limited_fraction,
-              baseline_file, max_regression_pct, allow_empty, as_json, **params):
+              baseline_file, max_regression_pct, allow_empty, strict, as_json, **params):
     """Check PROGRAM against thresholds, for CI: exit 0 when all hold, 1 when one fails
     (with the blocks to look at), 2 on bad input."""
     from ncsim.report import summary as report
@@ -551,12 +554,12 @@ def check_cmd(program, machine_name, max_time_s, min_feed_ratio, max_limited_fra
     options = model_options(params)
     nc = nc_options(params)
     require_thresholds(max_time_s, min_feed_ratio, max_limited_fraction, baseline_file,
-                       max_regression_pct)
+                       max_regression_pct, strict)
     baseline = load_baseline(baseline_file) if baseline_file else None
     thresholds = dict(max_time_s=max_time_s, min_feed_ratio=min_feed_ratio,
                       max_limited_fraction=max_limited_fraction, baseline=baseline,
                       max_regression_pct=max_regression_pct, baseline_name=baseline_file or "",
-                      allow_empty=allow_empty)
+                      allow_empty=allow_empty, strict=strict)
     progress = Progress([*STAGES, "summary"])
     try:
         sim = simulate(program, machine_name, options, setup_offsets=params["setup_file"],

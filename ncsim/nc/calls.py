@@ -297,13 +297,18 @@ class Calls:
         """MCALL NAME(args): NAME becomes the modal call (a standard cycle without its file is
         only recorded, with a warning); MCALL alone ends it."""
         state = self.state
-        if not ctx.calls:
+        named = [(n, c) for n, c in ctx.commands if n not in HANDLED_COMMANDS]
+        if ctx.calls:
+            name, args, _ = ctx.calls.pop(0)
+            if ctx.call_exprs:
+                ctx.call_exprs.pop(0)
+        elif named:
+            name, args = named[0][0], ()
+            ctx.commands.remove(named[0])
+        else:
             ctx.record("MCALL", ())
             state.modal_call = None
             return
-        name, args, _ = ctx.calls.pop(0)
-        if ctx.call_exprs:
-            ctx.call_exprs.pop(0)
         ctx.record(f"MCALL {name}", args)
         if name not in SIMULATED_CYCLES and self.find_unit(name, ctx.file) is not None:
             state.modal_call = (name, args, col)

@@ -17,7 +17,9 @@ Thresholds (all optional, at least one is needed):
   programmed feed) at most this;
 * ``baseline`` + ``max_regression_pct``: cycle time at most ``(1 + pct/100)`` times the
   ``cycle_time_s`` of a summary saved with ``ncsim run --json``. When both summaries have
-  ``blocks_detail`` for the same blocks, a failure names the blocks that got slower.
+  ``blocks_detail`` for the same blocks, a failure names the blocks that got slower;
+* ``strict``: the time is exact, i.e. nothing that can change it went unsimulated (the
+  summary's ``approximate``); a failure names what was left out.
 """
 from __future__ import annotations
 
@@ -123,24 +125,36 @@ def _program_check(summary: dict) -> list[CheckResult]:
 
 
 def require_thresholds(max_time_s=None, min_feed_ratio=None, max_limited_fraction=None,
-                       baseline=None, max_regression_pct=None) -> None:
+                       baseline=None, max_regression_pct=None, strict: bool = False) -> None:
     """Raise a one-line UsageError unless at least one threshold is given, and the baseline
     and its allowed regression come together."""
     if (baseline is None) != (max_regression_pct is None):
         raise UsageError("--baseline and --max-regression go together")
-    if all(v is None for v in (max_time_s, min_feed_ratio, max_limited_fraction, baseline)):
+    if not strict and all(v is None for v in (max_time_s, min_feed_ratio, max_limited_fraction,
+                                              baseline)):
         raise UsageError("no threshold given: use --max-time, --min-feed-ratio, "
-                         "--max-limited-fraction or --baseline with --max-regression")
+                         "--max-limited-fraction, --baseline with --max-regression or --strict")
 
 
 def evaluate(summary: dict, *, max_time_s: float | None = None,
              min_feed_ratio: float | None = None, max_limited_fraction: float | None = None,
              baseline: dict | None = None, max_regression_pct: float | None = None,
-             baseline_name: str = "baseline", allow_empty: bool = False) -> list[CheckResult]:
+             baseline_name: str = "baseline", allow_empty: bool = False,
+             strict: bool = False) -> list[CheckResult]:
     """Check ``summary`` against the given thresholds (module docstring), in that order."""
     require_thresholds(max_time_s, min_feed_ratio, max_limited_fraction, baseline,
-                       max_regression_pct)
+                       max_regression_pct, strict)
     out = [] if allow_empty else _program_check(summary)
+    if strict:
+        left_out = summary.get("approximations", {})
+        ok = not summary.get("approximate", False)
+        n = sum(a["count"] for a in left_out.values())
+        out.append(CheckResult("strict", ok, float(n), 0.0,
+                               "the time is exact (nothing that can change it is left out)" if ok
+                               else f"the time is approximate: {n} unsimulated feature use(s) "
+                                    f"of {len(left_out)} kind(s) (--strict)",
+                               () if ok else tuple(f"{kind}: {a['count']} x, {a['reason']}"
+                                                   for kind, a in left_out.items())))
     t = summary["cycle_time_s"]
     if max_time_s is not None:
         ok = t <= max_time_s

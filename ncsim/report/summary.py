@@ -155,10 +155,20 @@ def summary(sim, *, top: int = 10, include_blocks: bool = True) -> dict:
         slowest_blocks=block_dicts(rows, files, order),
         slowest_rapids=block_dicts(rows, files, rapid_order),
         warnings=[w.render() for w in sim.warnings],
+        **approximations(sim),
     )
     if include_blocks:
         out["blocks_detail"] = block_dicts(rows, files, np.arange(path.n))
     return out
+
+
+def approximations(sim) -> dict:
+    """``approximate`` (bool) and ``approximations`` ({kind: {"count", "reason"}}): what was
+    not simulated although it can change the time (ignored cycles, rotary axes, TRAORI, tool
+    changes, missing subprograms, ...), each kind with how often it was executed."""
+    found = sim.interpreted.approximations if sim.interpreted is not None else ()
+    return {"approximate": bool(found),
+            "approximations": {kind: {"count": n, "reason": reason} for kind, n, reason in found}}
 
 
 def block_dicts(rows: dict, files, index) -> list[dict]:
@@ -241,6 +251,11 @@ def format_text(s: dict, feed_unit: str = "mm/min") -> str:
             lines.append(f"  {where:<28} {b['block']:>7} {prog} {feed(b['feed_setpoint_mm_min'], 8)} "
                          f"{feed(b['feed_max_mm_min'], 8)} {b['limit']:<14} {b['lost_to']:<14} "
                          f"{b['duration_s']:8.3f} {b['time_lost_s']:8.3f}")
+    if s.get("approximate"):
+        lines.append("")
+        lines.append("approximate: the time leaves out what ncsim does not simulate")
+        for kind, a in s["approximations"].items():
+            lines.append(f"  {kind:<20} {a['count']:>6} x  {a['reason']}")
     if s["warnings"]:
         lines.append("")
         lines.append(f"{len(s['warnings'])} warning(s) (see stderr)")
