@@ -19,6 +19,7 @@ or warn is executed block by block instead.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from operator import itemgetter
 from pathlib import Path as FsPath
 
 import numpy as np
@@ -38,7 +39,9 @@ DEFAULT_CIRCLE_ERROR_FACTOR = 0.001    # MD21010 $MC_CIRCLE_ERROR_FACTOR (840D d
 #: loop (``--block-budget`` changes it): the shop programs that generate their motion in loops
 #: execute up to ~1.2 million blocks
 DEFAULT_LOOP_BUDGET = 2_000_000
-ROWS_PER_FLUSH = 50_000      # block-path segments kept as Python rows before they become columns
+LOOP_WATCH_FROM = 1024       # jumps back at one place before the loop's state is watched
+LOOP_WATCH_WINDOW = 1024     # passes compared with a kept state (the longest cycle found)
+ROWS_PER_FLUSH = 4096        # block-path segments kept as Python rows before they become columns
 MISSING_SUBPROGRAMS = ("error", "warn")
 
 #: warning kinds that make the cycle time approximate (something that can change the time is
@@ -182,8 +185,9 @@ class PathOutput:
     def flush(self) -> None:
         if not self.rows:
             return
-        cols = {name: [r[name] for r in self.rows] for name in self.rows[0]}
-        self.builder.extend(**{name: np.array(v) for name, v in cols.items()})
+        names = tuple(self.rows[0])
+        columns = zip(*map(itemgetter(*names), self.rows))
+        self.builder.extend(**{name: np.array(v) for name, v in zip(names, columns)})
         self.rows = []
 
 
@@ -217,6 +221,7 @@ class InterpreterState:
         self.vars.sysvars = SystemVariables(self, dict(given))
         self.blocks = 0
         self.loop_counts: dict = {}        # (file, line, col) of a jump back -> times taken
+        self._loop_states: dict = {}       # jump back -> (last pass to compare, kept state)
         self.f_value = 0.0                 # the last F as programmed ($P_F)
         self.feed_type = 94                # G93/G94/G95/G97/G971 (group 15)
         self.settable_code = 500           # G500, G54.. (group 8)
@@ -244,8 +249,46 @@ class InterpreterState:
 
     def jumped_back(self, file: str, line: int, col: int) -> None:
         """A jump back (GOTOB, ENDWHILE, ENDLOOP, ...) was taken: what a budget error names."""
-        key = (file, line, col)
-        self.loop_counts[key] = self.loop_counts.get(key, 0) + 1
+        self.count_jump((file, line, col))
+
+    def count_jump(self, key: tuple) -> None:
+        """Count a jump back at ``key`` (file, line, col); from the 1024th on, watch whether the
+        program comes back to the same state there (:meth:`_watch`)."""
+        n = self.loop_counts.get(key, 0) + 1
+        self.loop_counts[key] = n
+        if n >= LOOP_WATCH_FROM:
+            self._watch(key, n)
+
+    def _watch(self, key: tuple, n: int) -> None:
+        """An endless loop for certain: at the same jump back, the whole state that decides what
+        the program does next (R parameters, variables, call stack, modal state, position) is
+        the same as before. The interpreter is deterministic, so it would repeat forever. At
+        every power of two of the jump's count the state is kept, and the next
+        LOOP_WATCH_WINDOW passes are compared with it (cycles up to that length are found)."""
+        if n & (n - 1) == 0:
+            self._loop_states[key] = (n + LOOP_WATCH_WINDOW, self.loop_state())
+            return
+        kept = self._loop_states.get(key)
+        if kept is None or n > kept[0] or self.loop_state() != kept[1]:
+            return
+        period = n - (kept[0] - LOOP_WATCH_WINDOW)
+        every = "after every pass" if period == 1 else f"every {period} passes"
+        raise NcSemanticError(f"endless loop: at this jump back the program returns to the same "
+                              f"state (R parameters, variables, position) {every} (taken {n} "
+                              f"times)", *key)
+
+    def loop_state(self) -> tuple:
+        """What decides the program's future: R parameters, variables, the call stack (the top
+        frame's position is the jump's own), the modal state and the other settings."""
+        frames = tuple(_frame_state(fr, top=(k == len(self.stack) - 1))
+                       for k, fr in enumerate(self.stack))
+        st = self.st
+        modal = tuple(tuple(v) if isinstance(v, list) else v
+                      for v in (getattr(st, f) for f in st.__slots__ if f not in _OUTPUT_ONLY))
+        globals_ = tuple(sorted((k, _value_state(e)) for k, e in self.vars.globals.items()))
+        return (tuple(sorted(self.vars.r.items())), frames, modal, globals_, self.f_value,
+                self.feed_type, self.settable_code, self.master_spindle, self.modal_call,
+                None if self.pole_wcs is None else tuple(self.pole_wcs), tuple(self.polar))
 
     def budget_error(self, file: str, line: int) -> NcError:
         """The block budget is exhausted: the error names the jump back taken most often."""
@@ -327,3 +370,20 @@ class WordContext(BlockContext):
         self.call_exprs: list = []   # the argument expressions of each call (VAR parameters)
         self.first_col = 1
         self.polar: dict = {}        # AP/RP -> (value, mode, col)
+
+
+#: modal-state fields that shape the output (stops, dwells, tangents) but not what runs next
+_OUTPUT_ONLY = ("last_rapid", "last_segment", "pending_stop", "pending_dwell_s")
+
+
+def _value_state(entry):
+    value = entry[1]
+    data = getattr(value, "data", None)
+    return (entry[0], tuple(data) if data is not None else value)
+
+
+def _frame_state(fr, top: bool) -> tuple:
+    variables = tuple(sorted((k, _value_state(e)) for k, e in fr.variables.items()))
+    where = None if top else (fr.pc, fr.row)
+    return (id(fr.unit), where, fr.repeats_left, tuple(sorted(fr.for_end.items())),
+            tuple(sorted(fr.repeats.items())), tuple(fr.section_ends), variables)
