@@ -40,7 +40,7 @@ DEFAULT_CIRCLE_ERROR_FACTOR = 0.001    # MD21010 $MC_CIRCLE_ERROR_FACTOR (840D d
 #: execute up to ~1.2 million blocks
 DEFAULT_LOOP_BUDGET = 2_000_000
 LOOP_WATCH_FROM = 1024       # jumps back at one place before the loop's state is watched
-LOOP_WATCH_WINDOW = 1024     # passes compared with a kept state (the longest cycle found)
+LOOP_WATCH_WINDOW = 64       # passes compared with a kept state (the longest cycle found)
 ROWS_PER_FLUSH = 4096        # block-path segments kept as Python rows before they become columns
 MISSING_SUBPROGRAMS = ("error", "warn")
 

@@ -203,7 +203,137 @@ class _MoveCtx:
         self.gcodes = {}
 
 
-class OpCompiler:
+class _FlowOps:
+    """The ops of control statements (a mixin of :class:`OpCompiler`, which gives ``state``,
+    ``interp``, ``_expr``, ``_head``, ``_generate`` and ``_counter``)."""
+
+    # ---- control statements --------------------------------------------------------------------
+
+    def _statement(self, unit, pc: int, block: P.Block, s):
+        ec = self._expr(unit)
+        if isinstance(s, P.Goto):
+            return self._jumps(unit, pc, block, [(None, s)])
+        if isinstance(s, P.IfGoto):
+            cond = ec.source(s.cond)
+            return None if cond is None else self._jumps(unit, pc, block, [(cond, s.goto)])
+        if isinstance(s, P.IfGotos):
+            conds = [(ec.source(j.cond), j.goto) for j in s.jumps]
+            if any(c is None for c, _ in conds):
+                return None
+            return self._jumps(unit, pc, block, conds)
+        if isinstance(s, (P.If, P.While, P.Until)):
+            cond = ec.source(s.cond)
+            return None if cond is None else self._condition(unit, pc, block, s, cond)
+        if isinstance(s, P.Keyword):
+            return self._keyword(unit, pc, block, s, ec)
+        return None
+
+    def _jumps(self, unit, pc: int, block: P.Block, conds):
+        """GOTO*/IF .. GOTO* (one or several): the first true condition jumps."""
+        src, ns = self._head(unit, block)
+        src += "    try:\n"
+        for k, (cond, goto) in enumerate(conds):
+            dest = find_destination(unit, goto, pc)
+            if dest is None:
+                return None                      # the block path raises or goes on (GOTOC)
+            back = f"        count_jump(BACK{k})\n" if dest[0] <= pc else ""
+            ns[f"BACK{k}"] = (unit.file, block.line, goto.col)
+            jump = f"{back}        fr.pc = {dest[0]}\n        fr.row = {dest[1]}\n        return\n"
+            if cond is None:
+                src += jump
+                break
+            src += (f"        c = {cond}\n        if c - c != 0.0:\n            raise Fallback\n"
+                    f"        if c != 0.0:\n" + "".join("    " + ln + "\n"
+                                                   for ln in jump.rstrip("\n").split("\n")))
+        src += (f"    except Exception:\n        return generic(fr, {pc})\n"
+                f"    fr.pc = {pc + 1}\n")
+        ns.update(count_jump=self.state.count_jump, generic=self.interp.generic_uncounted)
+        return self._generate(src, ns)
+
+    def _condition(self, unit, pc: int, block: P.Block, s, cond: str):
+        """IF (false: to ELSE/ENDIF), WHILE (false: after ENDWHILE), UNTIL (false: back)."""
+        if isinstance(s, P.If):
+            on_false, back = unit.else_of.get(pc, unit.pairs[pc]) + 1, False
+        elif isinstance(s, P.While):
+            on_false, back = unit.pairs[pc] + 1, False
+        else:
+            on_false, back = unit.pairs[pc] + 1, True
+        src, ns = self._head(unit, block)
+        src += (f"    try:\n        c = {cond}\n        if c - c != 0.0:\n"
+                f"            raise Fallback\n    except Exception:\n"
+                f"        return generic(fr, {pc})\n    if c == 0.0:\n")
+        if back:
+            src += "        count_jump(BACK)\n"
+        src += f"        fr.pc = {on_false}\n    else:\n        fr.pc = {pc + 1}\n"
+        ns.update(count_jump=self.state.count_jump, generic=self.interp.generic_uncounted,
+                  BACK=(unit.file, block.line, s.col))
+        return self._generate(src, ns)
+
+    def _keyword(self, unit, pc: int, block: P.Block, s: P.Keyword, ec):
+        name = s.name
+        state = self.state
+        line = block.line
+        file = unit.file
+        count = self._counter(unit, line)
+        col = s.col
+        if name in ("ENDIF", "REPEAT", "LOOP"):
+            target, back = pc + 1, False
+        elif name == "ELSE":
+            target, back = unit.pairs[pc] + 1, False
+        elif name == "ENDWHILE":
+            target, back = unit.pairs[pc], True
+        elif name == "ENDLOOP":
+            target, back = unit.pairs[pc] + 1, True
+        elif name == "ENDFOR":
+            return self._endfor(unit, pc, block, s, ec)
+        else:
+            return None
+
+        def op(fr):
+            count()
+            if back:
+                state.jumped_back(file, line, col)
+            fr.pc = target
+        return op
+
+    def _endfor(self, unit, pc: int, block: P.Block, s: P.Keyword, ec):
+        start = unit.pairs[pc]
+        var = unit.items[start].statement.var
+        if isinstance(var, P.Var) and var.name not in ec.numeric_vars:
+            return None
+        state = self.state
+        r = state.vars.r
+        line = block.line
+        file = unit.file
+        count = self._counter(unit, line)
+        generic = self.interp.generic_uncounted
+        col = s.col
+        after = pc + 1
+        is_r = isinstance(var, P.RParam)
+
+        def op(fr):
+            count()
+            end = fr.for_end.get(start)
+            if end is None:                          # the block path raises
+                return generic(fr, pc)
+            if is_r:
+                value = r[var.index] + 1.0
+                r[var.index] = value
+            else:
+                entry = fr.variables.get(var.name)
+                if entry is None or entry[0] not in ("REAL", "INT") or type(entry[1]) is not float:
+                    return generic(fr, pc)
+                value = entry[1] + 1.0
+                entry[1] = value if entry[0] == "REAL" else _round_half_away(value)
+            if value <= end:
+                state.jumped_back(file, line, col)
+                fr.pc = start + 1
+            else:
+                fr.pc = after
+        return op
+
+
+class OpCompiler(_FlowOps):
     """Compiles the items of a unit into ops ``op(frame)`` for the interpreter's loop."""
 
     def __init__(self, interp) -> None:
@@ -343,12 +473,13 @@ class OpCompiler:
 
     # ---- assignments ---------------------------------------------------------------------------
 
-    def _assignments(self, unit, pc: int, block: P.Block):
-        """R and numeric variable assignments, one after the other; an assignment the compiled
-        code cannot do (and every one after it) is done by the block path's ``assign``."""
+    def _assign_steps(self, unit, block: P.Block, items) -> tuple[str, dict] | None:
+        """Source (inside ``op``) and namespace of assignments done one after the other; an
+        assignment the compiled code cannot do (and every one after it) is done by the block
+        path's evaluator and ``assign`` (``slow``)."""
         ec = self._expr(unit)
         body, compiled = [], 0
-        for k, item in enumerate(block.items):
+        for k, item in enumerate(items):
             target = item.target
             if not isinstance(target, (P.RParam, P.Var)):
                 return None
@@ -371,7 +502,6 @@ class OpCompiler:
         state = self.state
         vars_ = state.vars
         line = block.line
-        items = block.items
 
         def slow(fr, k):
             for item in items[k:]:
@@ -381,11 +511,19 @@ class OpCompiler:
         def store(v, target, value, fr):
             _store(v, target, value, vars_, state, fr, line)
 
+        src = ("    k = 0\n    try:\n" + "".join(body) +
+               "    except Exception:\n        slow(fr, k)\n")
+        ns = dict(slow=slow, store=store, **{f"T{k}": i.target for k, i in enumerate(items)})
+        return src, ns
+
+    def _assignments(self, unit, pc: int, block: P.Block):
+        """R and numeric variable assignments, one after the other (:meth:`_assign_steps`)."""
+        steps = self._assign_steps(unit, block, block.items)
+        if steps is None:
+            return None
         src, ns = self._head(unit, block)
-        src += "    k = 0\n    try:\n" + "".join(body)
-        src += ("    except Exception:\n        slow(fr, k)\n"
-                f"    fr.pc = {pc + 1}\n")
-        ns.update(slow=slow, store=store, **{f"T{k}": i.target for k, i in enumerate(items)})
+        src += steps[0] + f"    fr.pc = {pc + 1}\n"
+        ns.update(steps[1])
         return self._generate(src, ns)
 
     # ---- G0/G1 X Y Z F -------------------------------------------------------------------------
@@ -399,7 +537,18 @@ class OpCompiler:
         g = None
         axes: dict[int, str] = {}
         feed = None
-        for item in block.items:
+        items = block.items
+        n_assign = 0
+        while n_assign < len(items) and isinstance(items[n_assign], P.Assign):
+            n_assign += 1
+        pre = None
+        if n_assign:                     # R1=R1+1 G1 X=R1: the assignments first, then the move
+            if row or n_assign == len(items):
+                return None
+            pre = self._assign_steps(unit, block, items[:n_assign])
+            if pre is None:
+                return None
+        for item in items[n_assign:]:
             if not isinstance(item, P.Word):
                 return None
             a = item.address
@@ -428,6 +577,12 @@ class OpCompiler:
         if row:
             src = "def op(fr):\n    v = fr.variables\n"
             ns["generic"] = _row_fallback(self.interp, block, with_pc=True)
+        if pre is not None:
+            src += pre[0]
+            ns.update(pre[1])
+            rest = P.Block(line=block.line, number=block.number, skip_level=block.skip_level,
+                           label=block.label, items=items[n_assign:])
+            ns["generic"] = _rest_fallback(self.interp, rest)
         src += "    try:\n"
         for i, e in axes.items():
             src += (f"        a{i} = {e}\n"
@@ -473,130 +628,16 @@ class OpCompiler:
                   nan=math.nan)
         return self._generate(src, ns)
 
-    # ---- control statements --------------------------------------------------------------------
+def _rest_fallback(interp, rest: P.Block):
+    """The words of a block whose leading assignments are done: the block path for the rest."""
+    state = interp.state
+    exec_block = interp.exec_block
 
-    def _statement(self, unit, pc: int, block: P.Block, s):
-        ec = self._expr(unit)
-        if isinstance(s, P.Goto):
-            return self._jumps(unit, pc, block, [(None, s)])
-        if isinstance(s, P.IfGoto):
-            cond = ec.source(s.cond)
-            return None if cond is None else self._jumps(unit, pc, block, [(cond, s.goto)])
-        if isinstance(s, P.IfGotos):
-            conds = [(ec.source(j.cond), j.goto) for j in s.jumps]
-            if any(c is None for c, _ in conds):
-                return None
-            return self._jumps(unit, pc, block, conds)
-        if isinstance(s, (P.If, P.While, P.Until)):
-            cond = ec.source(s.cond)
-            return None if cond is None else self._condition(unit, pc, block, s, cond)
-        if isinstance(s, P.Keyword):
-            return self._keyword(unit, pc, block, s, ec)
-        return None
-
-    def _jumps(self, unit, pc: int, block: P.Block, conds):
-        """GOTO*/IF .. GOTO* (one or several): the first true condition jumps."""
-        src, ns = self._head(unit, block)
-        src += "    try:\n"
-        for k, (cond, goto) in enumerate(conds):
-            dest = find_destination(unit, goto, pc)
-            if dest is None:
-                return None                      # the block path raises or goes on (GOTOC)
-            back = f"        count_jump(BACK{k})\n" if dest[0] <= pc else ""
-            ns[f"BACK{k}"] = (unit.file, block.line, goto.col)
-            jump = f"{back}        fr.pc = {dest[0]}\n        fr.row = {dest[1]}\n        return\n"
-            if cond is None:
-                src += jump
-                break
-            src += (f"        c = {cond}\n        if c - c != 0.0:\n            raise Fallback\n"
-                    f"        if c != 0.0:\n" + "".join("    " + ln + "\n"
-                                                   for ln in jump.rstrip("\n").split("\n")))
-        src += (f"    except Exception:\n        return generic(fr, {pc})\n"
-                f"    fr.pc = {pc + 1}\n")
-        ns.update(count_jump=self.state.count_jump, generic=self.interp.generic_uncounted)
-        return self._generate(src, ns)
-
-    def _condition(self, unit, pc: int, block: P.Block, s, cond: str):
-        """IF (false: to ELSE/ENDIF), WHILE (false: after ENDWHILE), UNTIL (false: back)."""
-        if isinstance(s, P.If):
-            on_false, back = unit.else_of.get(pc, unit.pairs[pc]) + 1, False
-        elif isinstance(s, P.While):
-            on_false, back = unit.pairs[pc] + 1, False
-        else:
-            on_false, back = unit.pairs[pc] + 1, True
-        src, ns = self._head(unit, block)
-        src += (f"    try:\n        c = {cond}\n        if c - c != 0.0:\n"
-                f"            raise Fallback\n    except Exception:\n"
-                f"        return generic(fr, {pc})\n    if c == 0.0:\n")
-        if back:
-            src += "        count_jump(BACK)\n"
-        src += f"        fr.pc = {on_false}\n    else:\n        fr.pc = {pc + 1}\n"
-        ns.update(count_jump=self.state.count_jump, generic=self.interp.generic_uncounted,
-                  BACK=(unit.file, block.line, s.col))
-        return self._generate(src, ns)
-
-    def _keyword(self, unit, pc: int, block: P.Block, s: P.Keyword, ec):
-        name = s.name
-        state = self.state
-        line = block.line
-        file = unit.file
-        count = self._counter(unit, line)
-        col = s.col
-        if name in ("ENDIF", "REPEAT", "LOOP"):
-            target, back = pc + 1, False
-        elif name == "ELSE":
-            target, back = unit.pairs[pc] + 1, False
-        elif name == "ENDWHILE":
-            target, back = unit.pairs[pc], True
-        elif name == "ENDLOOP":
-            target, back = unit.pairs[pc] + 1, True
-        elif name == "ENDFOR":
-            return self._endfor(unit, pc, block, s, ec)
-        else:
-            return None
-
-        def op(fr):
-            count()
-            if back:
-                state.jumped_back(file, line, col)
-            fr.pc = target
-        return op
-
-    def _endfor(self, unit, pc: int, block: P.Block, s: P.Keyword, ec):
-        start = unit.pairs[pc]
-        var = unit.items[start].statement.var
-        if isinstance(var, P.Var) and var.name not in ec.numeric_vars:
-            return None
-        state = self.state
-        r = state.vars.r
-        line = block.line
-        file = unit.file
-        count = self._counter(unit, line)
-        generic = self.interp.generic_uncounted
-        col = s.col
-        after = pc + 1
-        is_r = isinstance(var, P.RParam)
-
-        def op(fr):
-            count()
-            end = fr.for_end.get(start)
-            if end is None:                          # the block path raises
-                return generic(fr, pc)
-            if is_r:
-                value = r[var.index] + 1.0
-                r[var.index] = value
-            else:
-                entry = fr.variables.get(var.name)
-                if entry is None or entry[0] not in ("REAL", "INT") or type(entry[1]) is not float:
-                    return generic(fr, pc)
-                value = entry[1] + 1.0
-                entry[1] = value if entry[0] == "REAL" else _round_half_away(value)
-            if value <= end:
-                state.jumped_back(file, line, col)
-                fr.pc = start + 1
-            else:
-                fr.pc = after
-        return op
+    def fallback(fr, pc):
+        state.line = rest.line
+        fr.pc = pc + 1
+        exec_block(fr, rest)
+    return fallback
 
 
 def _row_fallback(interp, block: P.Block, with_pc: bool = False):

@@ -3,8 +3,9 @@
 Block execution follows a fixed order (grbl's, adapted to the 840D; SINUMERIK Programming
 Guide Fundamentals, "Fundamental principles of NC programming"):
 
-0. control statements (GOTO, IF/ELSE/ENDIF, WHILE, FOR, REPEAT/UNTIL, LOOP, DEF) stand alone in
-   their block and run instead of the steps below (:mod:`ncsim.nc.flow`);
+0. control statements (GOTO, IF/ELSE/ENDIF, WHILE, FOR, REPEAT/UNTIL, LOOP, CASE, REPEAT/
+   REPEATB sections, DEF) stand alone in their block and run instead of the steps below
+   (:mod:`ncsim.nc.flow`);
 1. evaluate the words left to right (assignments take effect at once, so ``R1=5 X=R1`` moves
    to 5); reject unknown words and two G functions of one group (:mod:`ncsim.nc.words`);
 2. modal G functions (settable frame, units, plane, G90/G91, feed type, G60/G64.., G601..);
@@ -12,10 +13,11 @@ Guide Fundamentals, "Fundamental principles of NC programming"):
    arguments), F S T D H M, ADIS/ADISPOS, CTOL/OTOL, SOFT/BRISK/DRIVE, FFWON/FFWOF, STOPRE,
    the compressor (COMPON..COMPOF), recorded settings (DYN*) (steps 2 and 3:
    :mod:`ncsim.nc.settings`);
-4. the motion (G0 G1 G2 G3 CIP CT) or the dwell (G4) (:mod:`ncsim.nc.moves`), then subprogram
-   calls and cycles (CYCLE832 -- which switches path mode, compressor, SOFT, FFWON and CTOL
-   per the machine file's ``[cycle832]`` table --, MSG, ...), then M17/RET and M2/M30
-   (:mod:`ncsim.nc.calls`).
+4. the motion (G0 G1 G2 G3 CIP CT, polar AP/RP) or the dwell (G4) or a pole (G110-G112)
+   (:mod:`ncsim.nc.moves`), then MCALL, subprogram calls and cycles (found as PROCs, beside the
+   caller or in the ``--subprograms`` folders; CYCLE832 switches path mode, compressor, SOFT,
+   FFWON and CTOL per the machine file's ``[cycle832]`` table), then M17/RET and M2/M30, then
+   the active modal call after a block with path motion (:mod:`ncsim.nc.calls`).
 
 840D semantics implemented: G70/G71 scale geometry only (feeds stay mm/min), G700/G710 scale
 geometry and feed; X=AC(..)/X=IC(..) per axis; I J K incremental to the start point unless
@@ -32,12 +34,20 @@ makes no segment (a full circle G2/G3 does; nor does a line that only rounding m
 block or since the last segment, STOPRE, a change of SOFT/BRISK/DRIVE, a G4 dwell, and a
 change between rapid and feed motion; S, T, D and F changes do not stop.
 
-Fast path: consecutive plain lines (:mod:`ncsim.nc.fastparse`) are interpreted as whole columns
+Fast paths: consecutive plain lines (:mod:`ncsim.nc.fastparse`) are interpreted as whole columns
 (:mod:`ncsim.nc.columns`: forward fill of modal words, cumulative sums for G91, one affine
 frame per run, vectorised arcs). Whenever a run needs anything else (an error, a warning, a
 budget overrun, CIP/CT modal, a short run) it is executed block by block instead, so both ways
-give the same Path, warnings and errors; ``interpret_text(..., fast=False)`` parses every line
-with Lark and never takes the fast path (``tests/test_fastpath.py`` compares the two).
+give the same Path, warnings and errors. A block executed a second time (a loop) is compiled
+to Python code (:mod:`ncsim.nc.fastops`), which does what the block path does or hands the
+block to it. ``interpret_text(..., fast=False)`` parses every line with Lark and takes neither
+fast path (``tests/test_fastpath.py`` and ``tests/test_fastops.py`` compare the two).
+
+Endless loops: the blocks executed are counted against a budget (``--block-budget``; by
+default the lines of the program files plus 2,000,000); the error names the jump back taken
+most often. A loop that returns to the same state at its jump (R parameters, variables,
+position, modal state: the interpreter is deterministic) is stopped there after 1024 passes
+(cycles of up to 64 passes are recognised).
 
 The parts, each a small class holding the shared :class:`~ncsim.nc.context.InterpreterState`:
 
@@ -51,6 +61,8 @@ The parts, each a small class holding the shared :class:`~ncsim.nc.context.Inter
 ``calls``         subprogram calls and lookup, built-in cycles, M17/RET/M2/M30
 ``words``         step 1; ``settings``: steps 2 and 3; ``moves``: step 4 and the segments
 ``columns``       the column path for runs of plain blocks
+``fastops``       blocks compiled to Python code once they run a second time
+``sysvars``       the system variables programs read (``$P_GG[n]``, ``$P_AXN3``, ...)
 ================  ==========================================================================
 
 Where new features go:
@@ -65,8 +77,11 @@ Where new features go:
   and a handler in the table of :class:`ncsim.nc.flow.Flow`;
 * a new cycle (CYCLE832 simulated, ...): a handler in ``Calls.builtins``
   (:mod:`ncsim.nc.calls`); it reads the modal state and changes it like a setting does;
-* new variable kinds (arrays, VAR parameters): :mod:`ncsim.nc.variables` and
-  :meth:`ncsim.nc.calls.Calls.push`;
+* new variable kinds: :mod:`ncsim.nc.variables` and :meth:`ncsim.nc.calls.Calls.push`; a
+  system variable: a handler in :mod:`ncsim.nc.sysvars`;
+* a kind of block that loops run often and the block path runs slowly: an op in
+  :class:`ncsim.nc.fastops.OpCompiler` (the property test of ``tests/test_fastops.py`` must
+  draw it);
 * anything the column path cannot do exactly like the block path: make
   :meth:`ncsim.nc.columns.ColumnPath.run` decline the run (return False).
 """
@@ -189,6 +204,7 @@ class Interpreter:
             for definitions in state.options.definitions:
                 load_definitions(state, definitions)
             units = split_units(program, FsPath(program.file).stem.upper() or "MAIN")
+            self.main_unit = units[0]
             self.calls.add_units(units[1:])
             self.calls.push(units[0], (), 1)
             self._loop()
