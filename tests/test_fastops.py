@@ -141,7 +141,7 @@ LOOP = "R1=0\nG1 F100\nTOP: R1=R1+1\n{body}\nIF R1<6 GOTOB TOP\nM30\n"
 
 @pytest.mark.parametrize("body, fragment", [
     ("R2=7/(R1-4)", "division by zero (/)"),                           # at the 4th pass
-    ("R2=1000000*1000000 R3=R2*R2*R2*R2*R2*R2*R2*R2*R2*R2\nR4=1/(R3*R3*R3)", "arithmetic overflow"),
+    ("R2=1000000*1000000 R3=R2*R2*R2*R2*R2*R2*R2*R2*R2*R2\nR4=1/(R3*R3*R3)", "is out of the range of a REAL"),
     ("R2=SQRT(3-R1)", "SQRT of a negative number"),
     ("X=R1*1000000000", "out of range"),
     ("G1 X=R1 F=4-R1", "feed F must be positive"),

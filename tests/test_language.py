@@ -217,7 +217,7 @@ def test_system_variables_from_the_machine_file_or_a_located_error(mikron):
 
 def test_setal_stops_on_cycle_alarms_and_warns_on_messages_setms_sblof_msg():
     r = run('SETMS(2)\nR1=$P_MSNUM\nSBLOF DISPLOF\nSETAL(62100)\nMSG ("RADIUS " << R1)\nSBLON\n'
-            'SETMS\nG1 F100 X=R1+$P_MSNUM\n')
+            'SETMS\nG1 F100 X=R1+$P_MSNUM\nM30\n')
     assert xs(r) == [3] and [m.args for m in r.messages] == [("RADIUS 2",)]
     assert [w.message for w in r.warnings] == ["cycle alarm 62100 set by T (a message: the program "
                                                "goes on)"]

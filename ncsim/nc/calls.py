@@ -182,7 +182,7 @@ class Calls:
         program = parse_text(text, str(path), fast=state.fast)
         self.file_dirs[str(path)] = path.parent
         state.add_lines(program.n_lines)
-        units = split_units(program, name)
+        units = split_units(program, name, subprogram=True)
         self.add_units(units[1:])
         state.units.setdefault(name, units[0])
         return units[0]

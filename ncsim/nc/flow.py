@@ -4,8 +4,8 @@
 Programming Guide Advanced, "Flexible NC programming", control structures):
 
 * a file is a main part followed by PROCs, each PROC running to the next PROC
-  (:func:`split_units`); comment, blank and ``%_N_..._SPF`` header lines before the first PROC
-  are no main part (the file is that PROC);
+  (:func:`split_units`); in a subprogram file, comment, blank and ``%_N_..._SPF`` header lines
+  before the first PROC are no main part (the file is that PROC);
 * IF/ELSE/ENDIF, WHILE/ENDWHILE, FOR/ENDFOR, REPEAT/UNTIL and LOOP/ENDLOOP pair up before
   execution (:func:`compile_unit`), so an unpaired statement is an error at its line even if it
   is never reached;
@@ -113,13 +113,16 @@ def compile_unit(unit: Unit) -> Unit:
     return unit
 
 
-def split_units(program: P.Program, main_name: str) -> list[Unit]:
-    """The program's units: the main part, then one per PROC (a PROC runs to the next PROC)."""
+def split_units(program: P.Program, main_name: str, subprogram: bool = False) -> list[Unit]:
+    """The program's units: the main part, then one per PROC (a PROC runs to the next PROC).
+    In a ``subprogram`` file (one called by name), comment and header lines before its first
+    PROC are no main part: the file is that PROC. A main program keeps them as its (empty) main
+    part, so that a file of PROCs run on its own is recognised as such."""
     units: list[Unit] = []
     current = Unit(main_name, program.file, [])
     for item in program.items:
         if isinstance(item, P.Block) and isinstance(item.statement, P.Proc):
-            if units or not all(_is_empty(i) for i in current.items):
+            if units or current.items and not (subprogram and all(map(_is_empty, current.items))):
                 units.append(current)
             s = item.statement
             current = Unit(s.name, program.file, [item], s.params, attributes=s.attributes)

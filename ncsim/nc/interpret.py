@@ -276,29 +276,6 @@ class Interpreter:
         except RecursionError:
             raise Where(state.stack[-1].unit.file, state.line).error(
                 "expression nested too deeply", 1) from None
-        state.out.flush()
-        builder = state.out.builder
-        builder.end_dwell_s = state.st.pending_dwell_s
-        path = builder.build()
-        procs_only = len(units) > 1 and not any(_has_content(i) for i in units[0].items)
-        complete = state.ended or not self.ran_off_end or procs_only
-        self._warn_empty(program, path.n, complete, [u.name for u in units[1:]] * procs_only)
-        return InterpretResult(path, state.warnings.result(), state.blocks,
-                               tuple(state.recorded), complete)
-
-    def _warn_empty(self, program: P.Program, n_segments: int, complete: bool,
-                    procs: list[str]) -> None:
-        """An export cut short or empty is a warning, never a silent zero cycle time; so is a
-        file of PROCs that nothing calls (a subprogram run on its own)."""
-        warnings = self.state.warnings
-        if procs:
-            warnings.add("end", f"the file only defines PROC {', '.join(procs)}: nothing here "
-                         "calls it (run the program that does)", program.file, 0)
-        if not complete:
-            warnings.add("end", "the program ends without M30, M2 or M17 (truncated?)",
-                         program.file, program.n_lines)
-        if n_segments == 0:
-            warnings.add("motion", "no motion: the program moves no axis", program.file, 0)
 
     def generic_op(self, fr) -> None:
         """Execute the next item of the frame ``fr`` by the block path: a block (counted), or a
