@@ -98,6 +98,7 @@ def test_main_program_gives_a_time_or_its_one_error_line(results, folder, name):
         return
     message, line, col = expected
     assert r.exit_code == 2 and len(errors) == 1, r.stderr
+    assert r.stderr.splitlines()[-1] == errors[0]          # after the warnings that led to it
     where = re.match(r"^(.*):(\d+):(\d+): (.*)$", errors[0])
     assert where and (int(where[2]), int(where[3])) == (line, col) and where[4].startswith(message)
 

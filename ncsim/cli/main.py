@@ -101,14 +101,14 @@ def program_options(func):
     func = click.option("--block-budget", type=click.IntRange(min=1), default=None, metavar="N",
                         help="Stop as an endless loop after N executed blocks [default: the "
                              "program's lines + 2,000,000].")(func)
-    func = click.option("--definitions", type=click.Path(dir_okay=False), multiple=True,
+    func = click.option("--definitions", type=click.Path(dir_okay=False, exists=True), multiple=True,
                         metavar="FILE", help="GUD definitions file (MGUD.DEF, UGUD.DEF: DEF "
                         "NCK|CHAN type name), read before the program; repeatable.")(func)
     func = click.option("--missing-subprograms", type=click.Choice(["error", "warn"]),
                         default="error", show_default=True,
                         help="A call of a subprogram found nowhere: an error, or a warning "
                              "(no motion, the time is marked approximate).")(func)
-    func = click.option("--subprograms", type=click.Path(file_okay=False), multiple=True,
+    func = click.option("--subprograms", type=click.Path(file_okay=False, exists=True), multiple=True,
                         metavar="DIR", help="Folder searched for subprogram and cycle files "
                         "(NAME.SPF/.MPF, any case) after the program's own folder; "
                         "repeatable.")(func)
