@@ -46,7 +46,7 @@ def same(a, b) -> bool:
 
 LEAVES = st.one_of(
     st.sampled_from(["R1", "R2", "R3", "R4", "_A", "_B", "_I", "0", "1", "2.5", "-3", "90",
-                     "1000000", "0.001", "100000000"]),
+                     "1000000", "0.001", "100000000", "0.0000000001", "0.00000000000001"]),
     st.integers(-50, 50).map(str))
 UNARY = ["-", "NOT ", "ABS", "SIN", "COS", "SQRT", "TRUNC", "ROUND", "POT", "EXP", "LN", "ACOS"]
 BINARY = ["+", "-", "*", "/", " DIV ", " MOD ", "<", "==", "<>", ">=", " AND ", " OR ", " XOR ",

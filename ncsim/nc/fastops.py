@@ -37,14 +37,11 @@ from ncsim.nc import program as P
 from ncsim.nc.context import WORD_VALUE_LIMIT, BlockContext
 from ncsim.nc.expr import FUNCTIONS, evaluate
 from ncsim.nc.flow import find_destination
-from ncsim.path import LINE
 from ncsim.units import mm_min_to_mm_s
 
 _NUMERIC_TYPES = ("REAL", "INT", "BOOL")
 _COMPARE = {"==": "==", "<>": "!=", "<": "<", ">": ">", "<=": "<=", ">=": ">="}
 _MAX_SOURCE = 4000           # longer expressions stay with the evaluator
-_NAN3 = (math.nan, math.nan, math.nan)
-_ZERO3 = (0.0, 0.0, 0.0)
 
 
 class Fallback(Exception):
@@ -613,20 +610,14 @@ class OpCompiler(_FlowOps):
             src += "    else:\n"
             for i in range(3):
                 src += (f"        w{i} = a{i} * scale\n" if i in axes else f"        w{i} = p[{i}]\n")
-            src += ("    mcs = list(st.frame.apply(w0, w1, w2))\n"
-                    "    s = st.pos_mcs\n"
-                    "    dx, dy, dz = mcs[0] - s[0], mcs[1] - s[1], mcs[2] - s[2]\n"
-                    "    length = sqrt(dx * dx + dy * dy + dz * dz)\n"
-                    "    if length > 0.0:\n"
-                    "        mctx.frame = fr\n"
-                    "        emit(mctx, LINE_KIND, s, mcs, NAN3, ZERO3, nan, 0.0, 0.0, length, "
-                    "motion == 0)\n"
-                    "    st.pos_wcs = [w0, w1, w2]\n    st.pos_mcs = mcs\n")
+            src += ("    mctx.frame = fr\n"
+                    "    line_to(mctx, [w0, w1, w2], list(st.frame.apply(w0, w1, w2)), "
+                    "motion == 0)\n")
         ns.setdefault("generic", self.interp.generic_uncounted)
-        ns.update(LIMIT=WORD_VALUE_LIMIT, mm_min_to_mm_s=mm_min_to_mm_s, sqrt=math.sqrt, emit=self.interp.moves._emit,
-                  mctx=_MoveCtx(block.line), LINE_KIND=LINE, NAN3=_NAN3, ZERO3=_ZERO3,
-                  nan=math.nan)
+        ns.update(LIMIT=WORD_VALUE_LIMIT, mm_min_to_mm_s=mm_min_to_mm_s,
+                  line_to=self.interp.moves.line_to, mctx=_MoveCtx(block.line))
         return self._generate(src, ns)
+
 
 def _rest_fallback(interp, rest: P.Block):
     """The words of a block whose leading assignments are done: the block path for the rest."""

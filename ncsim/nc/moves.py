@@ -316,6 +316,12 @@ class Moves:
         if not rapid:
             self._require_feed(ctx)
         wcs, mcs = self._targets(ctx, _suppressed(ctx))
+        self.line_to(ctx, wcs, mcs, rapid)
+
+    def line_to(self, ctx, wcs: list, mcs: list, rapid: bool) -> None:
+        """The straight segment from the current position to ``mcs`` (none when it is shorter
+        than MIN_LINE_MM); the position becomes ``wcs``/``mcs``. Compiled G0/G1 blocks
+        (:mod:`ncsim.nc.fastops`) end here too."""
         start = self.st.pos_mcs
         dx, dy, dz = mcs[0] - start[0], mcs[1] - start[1], mcs[2] - start[2]
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
