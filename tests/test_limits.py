@@ -466,8 +466,8 @@ def _mixed_path(rng, n_arcs=120):
 
 
 def test_whole_path_equals_block_by_block(mikron, monkeypatch):
-    """Bucketing and chunking do not mix arcs up: every block's limits are those of the block
-    alone, and a tiny chunk budget gives the same arrays."""
+    """Chunking does not mix blocks up: every block's limits are those of the block alone, and
+    a tiny chunk size gives the same arrays (junctions across chunk borders included)."""
     path = _mixed_path(np.random.default_rng(3))
     whole = path_limits(path, mikron)
     keys = ("cap_mm_s", "cap_limit", "jerk_mm_s3", "accel_mm_s2", "alpha_c_rad")
@@ -479,9 +479,9 @@ def test_whole_path_equals_block_by_block(mikron, monkeypatch):
         for label in CANDIDATE_LABELS:
             np.testing.assert_allclose(one.candidates[label][0], whole.candidates[label][i],
                                        rtol=1e-12)
-    monkeypatch.setattr(limits_mod, "SAMPLE_BUDGET", 64)
+    monkeypatch.setattr(limits_mod, "CHUNK_BLOCKS", 7)
     small = path_limits(path, mikron)
-    for key in keys:
+    for key in keys + ("junction_cap_mm_s", "junction_limit", "junction_dwell_s"):
         np.testing.assert_array_equal(getattr(small, key), getattr(whole, key))
 
 

@@ -6,12 +6,12 @@ and returns a :class:`PathLimits`: for every block the feed set point (paper eq.
 highest crossing feed (eq. 13/15, corners, stops) and the time spent standing there. The
 planner (:mod:`ncsim.plan`) turns these into the feed law; this module never plans time.
 
-Everything is vectorised over blocks and junctions. Arcs are sampled at ``SAMPLE_STEP_RAD``
-(1 deg) plus their end points, as 2-D ``(arcs, samples)`` arrays processed in chunks of at
-most ``SAMPLE_BUDGET`` samples (arcs grouped by their sample count -- exact up to 32, else
-rounded up to a power of two and padded by repeating the end sample), so memory stays bounded
-on million-block programs.
-The tangent direction of a helix repeats every turn, so at most one turn is sampled.
+Everything is vectorised over blocks and junctions. On arcs, every extremum over the arc's
+angle range (least V_t, A_n, J_t and tangential acceleration, alpha_c, largest J_t) is a closed
+form evaluated at a few known angles -- the range ends, the axis directions, the crossings of
+two axes' ratios (45 deg, ``tan alpha = J_mx / J_my``) -- by the compiled per-arc loops of
+:mod:`ncsim.plan.arc_extrema`, in any plane and for helices. The tangent direction of a helix
+repeats every turn, so at most one turn is considered.
 
 Lines (and rapid moves)
 -----------------------
@@ -27,20 +27,20 @@ A block of zero length has no direction: it is not limited by the axes or the cy
 
 Arcs and helices: the set point (paper §5.2.4, the Fig. 12 flowchart being unavailable)
 ---------------------------------------------------------------------------------------
-R is the radius of curvature (``geometry.curvature_radius_mm``). At each sample of the arc the
+R is the radius of curvature (``geometry.curvature_radius_mm``). At each angle of the arc the
 tangent t and principal normal n give (``kinematics``) J_t = min_i J_mi/|t_i| (eq. 9),
 V_t (eq. 7), A_n (eq. 8), V_An = sqrt(R A_n) (eq. 2) and V_Jt = (J_t R^2)^(1/3) (eq. 4).
 
 *alpha_c*, "the angular position when the feed rate becomes constant" (§5.2.4): the first
 position along the travel where the axes can carry the NCU's tangential jerk,
 J_t(alpha) >= J_tcurv (eq. 10) -- the earliest point from which the steady feed V_Jtcurv can be
-held. It is located on the samples and, when it is not the arc's start, refined by bisection
-inside the sampling step to where J_t = J_tcurv. If no sample reaches J_tcurv, or
-``options.ncu_path_jerk`` is off, alpha_c is the first sample where J_t is largest. This
+held: the arc's start, or the first angle where J_t reaches J_tcurv (solved in closed form).
+If no point of the arc reaches J_tcurv, or ``options.ncu_path_jerk`` is off, alpha_c is the
+first point where J_t is largest. This
 reproduces the paper's worked example: on the R 2.5 circle leaving along +X (tangent angle 0),
 alpha_c = 33.5 deg (acos(5/6) = 33.56 deg) where J_t(alpha_c) = J_tcurv = 6 m/s^3, so
 V_Jt(alpha_c) = V_Jtcurv = 2.01 m/min, V_An(alpha_c) = 5.7 m/min, V_t(alpha_c) = 36 m/min.
-(Choosing instead the carrying sample with the largest static look-ahead V_s, eq. 5, would put
+(Choosing instead the carrying point with the largest static look-ahead V_s, eq. 5, would put
 alpha_c at 45 deg, where V_An = 5.64 and V_t = 42.4 m/min, against the paper's example; the
 set points are the same either way.) ``alpha_c_rad`` reports it as the tangent's direction
 angle in the arc's working plane.
@@ -61,7 +61,7 @@ reach but which keep every trace within the axis limits, as a real 840D does:
   (``machine.ncu.normal_accel_share``, cf. 840D MD20602 CURV_EFFECT_ON_PATH_ACCEL)
 
 so the ``axis_velocity`` / ``axis_accel`` candidates are min(value at alpha_c, guard).
-Tangential acceleration in force: the least over the samples of
+Tangential acceleration in force: the least over the arc of
 min_i (A_mi - a_n |n_i|) / |t_i| with a_n = cap^2 / R (eq. 1; positive thanks to the guard).
 Tangential jerk in force for phases A/C (§5.2.2: "the minimum tangential jerk available" on
 the arc, 5 m/s^3 on the paper's machine): min(J_tcurv [if ncu option], min over the arc of J_t).
@@ -107,18 +107,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ncsim.plan import kinematics as kin
-from ncsim.geometry import (arc_basis, curvature_radius_mm, end_curvatures, end_tangents,
-                       start_curvatures, start_tangents)
+from ncsim.plan.arc_extrema import arc_capacities, arc_end_frames, arc_tangential_accel
 from ncsim.machine import MachineSpec
 from ncsim.motion import FULL_MODEL, Limit, ModelOptions
 from ncsim.path import ARC, DRIVE, SOFT, Path
 
-SAMPLE_STEP_RAD = np.deg2rad(1.0)   # arc sampling step (plus both end points)
-SAMPLE_BUDGET = 1 << 20             # samples per chunk of arcs
+CHUNK_BLOCKS = 1 << 16              # blocks (and junctions) per chunk of work
 TANGENT_TOL_RAD = 1e-4              # deflection above which a junction is a corner
 CURVATURE_TOL_REL = 1e-6            # relative curvature-vector jump that counts as a transition
-_J_REL = 1e-12                      # relative tolerance on J_t >= J_tcurv
-_JMAX_REL = 1e-9                    # relative tolerance on "J_t is largest"
 
 #: The candidate limits of a block's set point, in eq. 12's order (ties go to the earlier one).
 CANDIDATE_LIMITS = (Limit.PROGRAMMED, Limit.NCU_PATH_JERK, Limit.AXIS_JERK, Limit.AXIS_ACCEL,
@@ -174,44 +170,31 @@ def path_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_M
 
 def block_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_MODEL) -> PathLimits:
     """The limits of every block and junction of ``path`` as programmed (module docstring),
-    without the compressor and rounding of :func:`path_limits`."""
+    without the compressor and rounding of :func:`path_limits`. Blocks and junctions are
+    processed in chunks of ``CHUNK_BLOCKS``, so that the temporaries stay small next to the
+    results."""
     n = path.n
     ncu = machine.ncu
     j_ncu = ncu.tangential_jerk_mm_s3 if options.ncu_path_jerk else np.inf
 
     cand = {label: np.full(n, np.inf) for label in CANDIDATE_LABELS}
-    cand["programmed"] = np.where(path.rapid, np.inf, path.feed_mm_s).astype(np.float64)
-    if options.cycle_time_limit:
-        cand["cycle_time"] = kin.cycle_time_feed_limit_mm_s(path.length_mm, ncu.ipo_cycle_s)
-
-    accel = np.empty(n)
-    jerk_axis = np.empty(n)
-    vmax = np.empty(n)           # axis-velocity limit along the block (DRIVE)
-    alpha_c = np.full(n, np.nan)
     cap = np.empty(n)
     limit = np.empty(n, dtype=np.int8)
-
-    is_arc = path.kind == ARC
-    lines = np.nonzero(~is_arc)[0]
-    if len(lines):
-        _line_limits(path, lines, machine, cand, accel, jerk_axis, vmax)
-        cap[lines], limit[lines] = _set_point(cand, lines)
-    arcs = np.nonzero(is_arc)[0]
-    if len(arcs):
-        _arc_limits(path, arcs, machine, options, j_ncu, cand, cap, limit, accel, jerk_axis,
-                    vmax, alpha_c)
-
-    mode = (np.full(n, options.accel_mode, dtype=np.int8) if options.accel_mode is not None
-            else path.accel_mode)
-    drive = mode == DRIVE
-    if np.any(drive):
-        accel[drive] = kin.drive_accel_mm_s2(accel[drive], cap[drive], vmax[drive],
-                                             ncu.drive_speed_point_ratio,
-                                             ncu.drive_accel_reduction_ratio)
-    soft = (mode == SOFT) & options.jerk_limited_ramps
-    jerk = np.where(soft, np.minimum(jerk_axis, j_ncu), kin.brisk_jerk_mm_s3(accel, ncu.ipo_cycle_s))
-
-    jcap, jlimit, jdwell = _junction_limits(path, machine, options)
+    accel = np.empty(n)
+    jerk = np.empty(n)
+    alpha_c = np.full(n, np.nan)
+    jcap = np.full(n + 1, np.inf)
+    jlimit = np.full(n + 1, int(Limit.NONE), dtype=np.int8)
+    jdwell = np.zeros(n + 1)
+    for lo in range(0, n, CHUNK_BLOCKS):
+        hi = min(lo + CHUNK_BLOCKS, n)
+        _block_limits(path, lo, hi, machine, options, j_ncu, cand, cap, limit, accel, jerk,
+                      alpha_c)
+        _junction_limits(path, lo, hi, machine, options, jcap, jlimit)
+        _junction_dwell(path, lo, hi, ncu, jdwell)
+    jcap[0] = jcap[n] = 0.0
+    jlimit[0] = jlimit[n] = int(Limit.PROGRAM_END)
+    jdwell[n] += path.end_dwell_s
     return PathLimits(cap_mm_s=cap, cap_limit=limit, jerk_mm_s3=jerk, accel_mm_s2=accel,
                       alpha_c_rad=alpha_c, candidates=cand, junction_cap_mm_s=jcap,
                       junction_limit=jlimit, junction_dwell_s=jdwell)
@@ -221,6 +204,40 @@ def block_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_
 # Blocks
 # ---------------------------------------------------------------------------------------------
 
+def _block_limits(path, lo, hi, machine, options, j_ncu, cand, cap, limit, accel, jerk,
+                  alpha_c) -> None:
+    """Set points and ramp limits of blocks lo..hi-1, written into the result arrays."""
+    ncu = machine.ncu
+    blocks = slice(lo, hi)
+    cand["programmed"][blocks] = np.where(path.rapid[blocks], np.inf, path.feed_mm_s[blocks])
+    if options.cycle_time_limit:
+        cand["cycle_time"][blocks] = kin.cycle_time_feed_limit_mm_s(path.length_mm[blocks],
+                                                                    ncu.ipo_cycle_s)
+    jerk_axis = np.empty(hi - lo)
+    vmax = np.empty(hi - lo)     # axis-velocity limit along the block (DRIVE)
+    is_arc = path.kind[blocks] == ARC
+    lines = lo + np.flatnonzero(~is_arc)
+    if len(lines):
+        v_axis, accel[lines], jerk_axis[lines - lo] = _line_limits(path, lines, machine)
+        cand["axis_velocity"][lines] = vmax[lines - lo] = v_axis
+        cap[lines], limit[lines] = _set_point(cand, lines)
+    arcs = lo + np.flatnonzero(is_arc)
+    if len(arcs):
+        (cap[arcs], limit[arcs], accel[arcs], jerk_axis[arcs - lo], vmax[arcs - lo],
+         alpha_c[arcs]) = _arc_limits(path, arcs, machine, options, j_ncu, cand)
+
+    mode = (np.full(hi - lo, options.accel_mode, dtype=np.int8) if options.accel_mode is not None
+            else path.accel_mode[blocks])
+    drive = mode == DRIVE
+    a = accel[blocks]
+    if np.any(drive):
+        a[drive] = kin.drive_accel_mm_s2(a[drive], cap[blocks][drive], vmax[drive],
+                                         ncu.drive_speed_point_ratio,
+                                         ncu.drive_accel_reduction_ratio)
+    soft = (mode == SOFT) & options.jerk_limited_ramps
+    jerk[blocks] = np.where(soft, np.minimum(jerk_axis, j_ncu), kin.brisk_jerk_mm_s3(a, ncu.ipo_cycle_s))
+
+
 def _set_point(cand: dict[str, np.ndarray], idx) -> tuple[np.ndarray, np.ndarray]:
     """Eq. 12 over the candidates of blocks ``idx``: the value and its Limit (int8)."""
     value, which = kin.feed_set_point_mm_s(*[cand[label][idx] for label in CANDIDATE_LABELS])
@@ -228,151 +245,45 @@ def _set_point(cand: dict[str, np.ndarray], idx) -> tuple[np.ndarray, np.ndarray
     return value, codes[which]
 
 
-def _line_limits(path, idx, machine, cand, accel, jerk_axis, vmax) -> None:
-    """Axis limits along the direction of lines ``idx`` (eq. 7 and its accel/jerk analogues)."""
+def _line_limits(path, idx, machine):
+    """Axis limits along the direction of lines ``idx`` (eq. 7 and its accel/jerk analogues):
+    ``(V_t, tangential accel, J_t)``; a line without length takes the weakest axis."""
     length = path.length_mm[idx]
     d = path.end_mm[idx] - path.start_mm[idx]
-    u = np.divide(d, length[:, None], out=np.zeros_like(d), where=length[:, None] > 0.0)
-    v_axis = kin.axis_velocity_feed_limit_mm_s(u, machine.max_velocity_mm_s)
-    cand["axis_velocity"][idx] = v_axis
-    vmax[idx] = v_axis
+    u = np.divide(d, length[:, None], out=d, where=length[:, None] > 0.0)
+    u[length <= 0.0] = 0.0
     moving = length > 0.0
-    accel[idx] = np.where(moving, kin.axis_tangential_accel_limit_mm_s2(u, machine.max_accel_mm_s2),
-                          machine.max_accel_mm_s2.min())
-    jerk_axis[idx] = np.where(moving, kin.axis_tangential_jerk_limit_mm_s3(u, machine.max_jerk_mm_s3),
-                              machine.max_jerk_mm_s3.min())
+    v_axis = kin.axis_velocity_feed_limit_mm_s(u, machine.max_velocity_mm_s)
+    accel = np.where(moving, kin.axis_tangential_accel_limit_mm_s2(u, machine.max_accel_mm_s2),
+                     machine.max_accel_mm_s2.min())
+    jerk = np.where(moving, kin.axis_tangential_jerk_limit_mm_s3(u, machine.max_jerk_mm_s3),
+                    machine.max_jerk_mm_s3.min())
+    return v_axis, accel, jerk
 
 
-def _arc_sample_counts(sweep_rad: np.ndarray) -> np.ndarray:
-    """Samples per arc: end points plus steps of at most SAMPLE_STEP_RAD over <= one turn."""
-    sweep = np.minimum(sweep_rad, 2.0 * np.pi)
-    return np.maximum(np.ceil(sweep / SAMPLE_STEP_RAD - 1e-9).astype(np.int64), 1) + 1
-
-
-def _arc_limits(path, arcs, machine, options, j_ncu, cand, cap, limit, accel, jerk_axis, vmax,
-                alpha_c) -> None:
-    counts = _arc_sample_counts(path.sweep_rad[arcs])
-    # buckets: the exact count up to 32 samples, then the next power of two (<= 2x padding)
-    width = np.where(counts <= 32, counts, 1 << np.ceil(np.log2(counts)).astype(np.int64))
-    radius = curvature_radius_mm(path)
-    for w in np.unique(width):
-        members = np.nonzero(width == w)[0]          # positions in ``arcs``
-        rows = max(1, SAMPLE_BUDGET // int(w))
-        for start in range(0, len(members), rows):
-            pos = members[start:start + rows]
-            chunk = arcs[pos]
-            _arc_chunk(path, chunk, counts[pos], radius[chunk], int(w), machine, options, j_ncu,
-                       cand, cap, limit, accel, jerk_axis, vmax, alpha_c)
-
-
-def _arc_terms(path, idx):
-    """Per arc: basis (u, v, w), tangent lean r/rho and rise p/rho, swept angle (<= one turn)."""
-    r = path.radius_mm[idx]
-    sweep = path.sweep_rad[idx]
-    pitch = np.divide(path.helix_mm[idx], sweep, out=np.zeros_like(r), where=sweep > 0)
-    rho = np.hypot(r, pitch)
-    u, v, w = arc_basis(path.center_mm[idx], path.normal[idx], path.start_mm[idx])
-    return u, v, w, (r / rho)[:, None], (pitch / rho)[:, None], np.minimum(sweep, 2.0 * np.pi)
-
-
-def _frames_at(terms, phi):
-    """Unit tangents and principal normals (a, m, 3) at angles ``phi`` (a, m) of the arcs."""
-    u, v, w, lean, rise, _ = terms
-    c, s = np.cos(phi), np.sin(phi)
-    tangent = np.empty((*phi.shape, 3))
-    normal = np.empty((*phi.shape, 3))
-    for i in range(3):  # per component: (a, m) arrays, no (a, m, 3) temporaries
-        ui, vi = u[:, i:i + 1], v[:, i:i + 1]
-        tangent[..., i] = lean * (c * vi - s * ui) + rise * w[:, i:i + 1]
-        normal[..., i] = -(c * ui + s * vi)
-    return tangent, normal
-
-
-def _sample_angles(sweep, counts, width):
-    """(a, width) sample angles: ``counts`` evenly spaced from 0 to the sweep, then the end
-    angle repeated up to ``width`` (padding that changes no min, max or first-match)."""
-    frac = np.minimum(np.arange(width)[None, :] / (counts - 1)[:, None], 1.0)
-    return sweep[:, None] * frac
-
-
-def _subset(terms, mask):
-    return tuple(t[mask] for t in terms)
-
-
-def _first_crossing(terms, phi_lo, phi_hi, j_min, max_jerk, steps=20):
-    """Bisection for the first angle in [phi_lo, phi_hi] where J_t (eq. 9) reaches ``j_min``,
-    J_t(phi_lo) < j_min <= J_t(phi_hi); returns the upper bracket (J_t >= j_min holds there),
-    within 2^-steps of the 1-degree step."""
-    lo, hi = phi_lo.copy(), phi_hi.copy()
-    for _ in range(steps):
-        mid = 0.5 * (lo + hi)
-        tangent, _ = _frames_at(terms, mid[:, None])
-        ok = kin.axis_tangential_jerk_limit_mm_s3(tangent[:, 0], max_jerk) >= j_min
-        hi = np.where(ok, mid, hi)
-        lo = np.where(ok, lo, mid)
-    return hi
-
-
-def _plane_angle(tangent: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Direction angle in [0, 2 pi) of ``tangent`` in the working plane of an arc of axis ``w``
-    (G17: X, Y; G18: Z, X; G19: Y, Z -- chosen by the largest component of w)."""
-    plane = np.argmax(np.abs(w), axis=-1)            # 2 -> G17, 1 -> G18, 0 -> G19
-    first = np.array([1, 2, 0])[plane]              # abscissa: X for G17, Z for G18, Y for G19
-    second = np.array([2, 0, 1])[plane]             # ordinate: Y, X, Z
-    rows = np.arange(len(tangent))
-    return np.mod(np.arctan2(tangent[rows, second], tangent[rows, first]), 2.0 * np.pi)
-
-
-def _arc_chunk(path, idx, counts, radius, width, machine, options, j_ncu, cand, cap, limit,
-               accel, jerk_axis, vmax, alpha_c) -> None:
-    """Limits of the arcs ``idx`` (curvature radii ``radius``), sampled ``width`` times each."""
+def _arc_limits(path, arcs, machine, options, j_ncu, cand):
+    """Set points of the arcs ``arcs`` (module docstring), from the closed-form extrema of
+    eq. 7-9 over each arc's angle range (:mod:`ncsim.plan.arc_extrema`); writes their eq. 12
+    candidates into ``cand`` and returns ``(cap, limit, tangential accel, least J_t, least
+    V_t, alpha_c)``."""
     ncu = machine.ncu
-    a_max = machine.max_accel_mm_s2
-    terms = _arc_terms(path, idx)
-    phi = _sample_angles(terms[5], counts, width)
-    tangent, normal = _frames_at(terms, phi)
-
-    j_t = kin.axis_tangential_jerk_limit_mm_s3(tangent, machine.max_jerk_mm_s3)   # eq. 9
-    v_t = kin.axis_velocity_feed_limit_mm_s(tangent, machine.max_velocity_mm_s)   # eq. 7
-    a_n = kin.axis_normal_accel_limit_mm_s2(normal, a_max)                        # eq. 8
-
-    # alpha_c: first sample carrying J_tcurv, else first sample of largest J_t; when the first
-    # carrying sample is not the start, the crossing J_t = J_tcurv inside the step is refined
-    j_best = j_t.max(axis=1, keepdims=True)
-    j_floor = j_ncu * (1.0 - _J_REL)
-    carries = j_t >= j_floor
-    use_ncu = np.isfinite(j_ncu) & carries.any(axis=1)
-    chosen = np.where(use_ncu[:, None], carries, j_t >= j_best * (1.0 - _JMAX_REL))
-    k = np.argmax(chosen, axis=1)
-    rows = np.arange(len(idx))
-    phi_c = phi[rows, k]
-    refine = use_ncu & (k > 0)
-    if np.any(refine):
-        phi_c[refine] = _first_crossing(_subset(terms, refine), phi[rows, k - 1][refine],
-                                        phi_c[refine], j_ncu, machine.max_jerk_mm_s3)
-    t_c, n_c = (f[:, 0] for f in _frames_at(terms, phi_c[:, None]))
-    alpha_c[idx] = _plane_angle(t_c, terms[2])
-    j_t_c = kin.axis_tangential_jerk_limit_mm_s3(t_c, machine.max_jerk_mm_s3)
-    j_t_c = np.where(use_ncu, np.maximum(j_t_c, j_ncu), j_t_c)   # carries J_tcurv by choice
-    v_t_c = kin.axis_velocity_feed_limit_mm_s(t_c, machine.max_velocity_mm_s)
-    a_n_c = kin.axis_normal_accel_limit_mm_s2(n_c, a_max)
-
-    v_t_guard = v_t.min(axis=1)
-    v_an_guard = kin.normal_accel_feed_limit_mm_s(radius, ncu.normal_accel_share * a_n.min(axis=1))
+    columns = (arcs, path.start_mm, path.center_mm, path.normal, path.radius_mm, path.sweep_rad,
+               path.helix_mm)
+    (radius, _, alpha_c, _, j_t_c, v_t_c, a_n_c, v_t_min, a_n_min,
+     j_t_min) = arc_capacities(*columns, machine.max_velocity_mm_s, machine.max_accel_mm_s2,
+                               machine.max_jerk_mm_s3, float(j_ncu))
+    v_an_guard = kin.normal_accel_feed_limit_mm_s(radius, ncu.normal_accel_share * a_n_min)
     if np.isfinite(j_ncu):
-        cand["ncu_path_jerk"][idx] = kin.ncu_path_jerk_feed_limit_mm_s(j_ncu, radius)  # eq. 11
+        cand["ncu_path_jerk"][arcs] = kin.ncu_path_jerk_feed_limit_mm_s(j_ncu, radius)  # eq. 11
     if options.axis_jerk_setpoint:
-        cand["axis_jerk"][idx] = kin.tangential_jerk_feed_limit_mm_s(j_t_c, radius)  # eq. 4
-    cand["axis_accel"][idx] = np.minimum(
-        kin.normal_accel_feed_limit_mm_s(radius, a_n_c), v_an_guard)                 # eq. 2
-    cand["axis_velocity"][idx] = np.minimum(v_t_c, v_t_guard)
-    cap[idx], limit[idx] = _set_point(cand, idx)                                     # eq. 12
-
-    a_normal = cap[idx] ** 2 / radius                                                # eq. 1
-    accel[idx] = kin.tangential_accel_available_mm_s2(
-        tangent, normal, np.broadcast_to(a_normal[:, None], j_t.shape), a_max).min(axis=1)
-    jerk_axis[idx] = j_t.min(axis=1)
-    vmax[idx] = v_t_guard
+        cand["axis_jerk"][arcs] = kin.tangential_jerk_feed_limit_mm_s(j_t_c, radius)    # eq. 4
+    cand["axis_accel"][arcs] = np.minimum(
+        kin.normal_accel_feed_limit_mm_s(radius, a_n_c), v_an_guard)                    # eq. 2
+    cand["axis_velocity"][arcs] = np.minimum(v_t_c, v_t_min)                           # eq. 7
+    cap, limit = _set_point(cand, arcs)                                                 # eq. 12
+    a_normal = cap ** 2 / radius                                                        # eq. 1
+    accel = arc_tangential_accel(*columns, machine.max_accel_mm_s2, a_normal)
+    return cap, limit, accel, j_t_min, v_t_min, alpha_c
 
 
 # ---------------------------------------------------------------------------------------------
@@ -385,51 +296,64 @@ def _settle_s(stop_window: np.ndarray, ncu) -> np.ndarray:
                      [ncu.exact_stop_coarse_settle_s, 0.0], ncu.exact_stop_fine_settle_s)
 
 
-def _junction_limits(path, machine, options):
-    n = path.n
+def _junction_dwell(path, lo, hi, ncu, dwell) -> None:
+    """Standing time at the junctions of blocks lo..hi-1: each block's dwell at its start, and
+    the exact-stop settle at the end of a block that stops exactly."""
+    dwell[lo:hi] += path.dwell_before_s[lo:hi]
+    stop = path.exact_stop[lo:hi]
+    if np.any(stop):
+        dwell[lo + 1:hi + 1] += np.where(stop, _settle_s(path.stop_window[lo:hi], ncu), 0.0)
+
+
+def _block_frames(path, lo, hi, at_end):
+    """Unit tangents and curvature vectors (1/mm) at the start or end of blocks lo..hi-1."""
+    d = path.end_mm[lo:hi] - path.start_mm[lo:hi]
+    length = path.length_mm[lo:hi]
+    tangent = np.divide(d, length[:, None], out=d, where=length[:, None] > 0.0)
+    tangent[length <= 0.0] = 0.0
+    curvature = np.zeros_like(tangent)
+    arcs = lo + np.flatnonzero(path.kind[lo:hi] == ARC)
+    if len(arcs):
+        tangent[arcs - lo], curvature[arcs - lo] = arc_end_frames(
+            arcs, path.start_mm, path.center_mm, path.normal, path.radius_mm, path.sweep_rad,
+            path.helix_mm, at_end)
+    return tangent, curvature
+
+
+def _junction_limits(path, lo, hi, machine, options, cap, lim) -> None:
+    """Crossing caps of the inner junctions max(lo, 1)..hi-1 (junction k joins block k-1 to
+    block k), written into ``cap`` and ``lim``."""
+    first = max(lo, 1)
+    if hi <= first:
+        return
     ncu = machine.ncu
-    cap = np.full(n + 1, np.inf)
-    lim = np.full(n + 1, int(Limit.NONE), dtype=np.int8)
+    before, after, inner = slice(first - 1, hi - 1), slice(first, hi), slice(first, hi)
+    t1, k1 = _block_frames(path, first - 1, hi - 1, True)
+    t2, k2 = _block_frames(path, first, hi, False)
+    deflection = kin.deflection_angle_rad(t1, t2)
+    corner = deflection > TANGENT_TOL_RAD
 
-    if n >= 2:
-        t1 = end_tangents(path)[:-1]
-        t2 = start_tangents(path)[1:]
-        deflection = kin.deflection_angle_rad(t1, t2)
-        corner = deflection > TANGENT_TOL_RAD
+    # corners: the G64 axis velocity jump (rounded corners are ncsim.plan.blend's)
+    v_corner = kin.corner_feed_g64_mm_s(t1, t2, machine.max_accel_mm_s2, ncu.ipo_cycle_s,
+                                        machine.max_accel_ovl_factor)
 
-        # corners: the G64 axis velocity jump (rounded corners are ncsim.plan.blend's)
-        v_corner = kin.corner_feed_g64_mm_s(t1, t2, machine.max_accel_mm_s2, ncu.ipo_cycle_s,
-                                            machine.max_accel_ovl_factor)
+    # curvature jumps with a continuous tangent: eq. 13 / 15
+    jump = kin.curvature_jump_1_mm(k1, k2)
+    scale = np.maximum(np.linalg.norm(k1, axis=1), np.linalg.norm(k2, axis=1))
+    transition = ~corner & (jump > CURVATURE_TOL_REL * scale) & options.transition_crossing
+    j_t = kin.axis_tangential_jerk_limit_mm_s3(t1, machine.max_jerk_mm_s3)       # eq. 15
+    v_fr = kin.transition_feed_mm_s(j_t, ncu.transition_time_s, jump)            # eq. 13
 
-        # curvature jumps with a continuous tangent: eq. 13 / 15
-        k1 = end_curvatures(path)[:-1]
-        k2 = start_curvatures(path)[1:]
-        jump = kin.curvature_jump_1_mm(k1, k2)
-        scale = np.maximum(np.linalg.norm(k1, axis=1), np.linalg.norm(k2, axis=1))
-        transition = ~corner & (jump > CURVATURE_TOL_REL * scale) & options.transition_crossing
-        j_t = kin.axis_tangential_jerk_limit_mm_s3(t1, machine.max_jerk_mm_s3)       # eq. 15
-        v_fr = kin.transition_feed_mm_s(j_t, ncu.transition_time_s, jump)            # eq. 13
+    cap[inner] = np.where(corner, v_corner, np.where(transition, v_fr, np.inf))
+    lim[inner] = np.select([corner, transition], [int(Limit.CORNER), int(Limit.TRANSITION)],
+                           int(Limit.NONE))
 
-        inner = slice(1, n)
-        cap[inner] = np.where(corner, v_corner, np.where(transition, v_fr, np.inf))
-        lim[inner] = np.select([corner, transition], [int(Limit.CORNER), int(Limit.TRANSITION)],
-                               int(Limit.NONE))
-
-        stops = [  # (mask over junctions 1..n-1, limit); later entries win the label
-            (path.rapid[:-1] != path.rapid[1:], Limit.AUX_STOP),
-            (path.stop_before[1:], Limit.AUX_STOP),
-            (path.exact_stop[:-1], Limit.EXACT_STOP),
-            (path.dwell_before_s[1:] > 0.0, Limit.DWELL),
-        ]
-        for mask, why in stops:
-            cap[inner][mask] = 0.0
-            lim[inner][mask] = int(why)
-
-    cap[0] = cap[n] = 0.0
-    lim[0] = lim[n] = int(Limit.PROGRAM_END)
-
-    dwell = np.zeros(n + 1)
-    dwell[:n] += path.dwell_before_s
-    dwell[1:] += np.where(path.exact_stop, _settle_s(path.stop_window, ncu), 0.0)
-    dwell[n] += path.end_dwell_s
-    return cap, lim, dwell
+    stops = [  # (mask over the junctions, limit); later entries win the label
+        (path.rapid[before] != path.rapid[after], Limit.AUX_STOP),
+        (path.stop_before[after], Limit.AUX_STOP),
+        (path.exact_stop[before], Limit.EXACT_STOP),
+        (path.dwell_before_s[after] > 0.0, Limit.DWELL),
+    ]
+    for mask, why in stops:
+        cap[inner][mask] = 0.0
+        lim[inner][mask] = int(why)
