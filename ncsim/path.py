@@ -246,7 +246,13 @@ class PathBuilder:
 
     ``add_line``/``add_arc`` take scalars; ``extend`` takes whole columns (used by the fast path
     for runs of plain blocks). Modal columns not given take the defaults of ``_COLUMNS``.
+
+    Cost is linear in the rows: rows are gathered as Python values and turned into column
+    chunks every ``ROW_CHUNK`` rows, chunks are kept in lists, and ``build`` joins each column
+    once (a column made of a single chunk is used as it is, without a copy).
     """
+
+    ROW_CHUNK = 1 << 14  # rows gathered one by one before they become a chunk
 
     def __init__(self, files: Iterable[str] = ("<program>",)):
         self.files: list[str] = list(files)
@@ -277,6 +283,8 @@ class PathBuilder:
                 v = np.full(shape, v, dtype=np.float64)
             self._rows[name].append(v)
         self._n += 1
+        if len(self._rows["kind"]) >= self.ROW_CHUNK:
+            self._flush_rows()
 
     def _flush_rows(self) -> None:
         if not self._rows["kind"]:
@@ -303,9 +311,13 @@ class PathBuilder:
                            length_mm=float(arc_length_mm(radius_mm, sweep_rad, helix_mm)),
                            line=line, feed_mm_s=feed_mm_s, **modal))
 
-    def extend(self, **columns) -> None:
+    def extend(self, *, copy: bool = True, **columns) -> None:
         """Append a chunk of rows. ``kind``, ``start_mm``, ``end_mm``, ``length_mm`` and ``line``
-        are required arrays; other columns may be arrays or scalars (broadcast)."""
+        are required arrays; other columns may be arrays or scalars (broadcast).
+
+        ``copy=False`` takes arrays that already have the column's dtype and shape as they are
+        (no copy, the path will hold them and make them read-only): for callers that have just
+        built the columns and drop them, so that a million rows are not copied twice."""
         self._flush_rows()
         n = len(columns["kind"])
         for name, (dtype, shape, default) in _COLUMNS.items():
@@ -317,8 +329,10 @@ class PathBuilder:
                 v = default
             arr = np.asarray(v, dtype=dtype)
             if arr.shape != (n, *shape):
-                arr = np.broadcast_to(arr, (n, *shape))
-            self._chunks[name].append(np.array(arr, dtype=dtype))
+                arr = np.array(np.broadcast_to(arr, (n, *shape)))
+            elif copy and arr is v:             # the caller's own array
+                arr = arr.copy()
+            self._chunks[name].append(arr)
         self._n += n
 
     def set_last(self, **values) -> None:
@@ -331,15 +345,25 @@ class PathBuilder:
         else:
             for name, v in values.items():
                 chunk = self._chunks[name][-1]
+                if not chunk.flags.writeable:  # held by a built Path: change a copy
+                    chunk = self._chunks[name][-1] = chunk.copy()
                 chunk[-1] = v
 
     def build(self) -> Path:
+        """The Path of all rows so far. Each column is joined once and its parts are released
+        as soon as it is whole, so building needs the path's size plus one column."""
         self._flush_rows()
         cols = {}
         for name, (dtype, shape, _) in _COLUMNS.items():
             chunks = self._chunks[name]
-            cols[name] = (np.concatenate(chunks).astype(dtype, copy=False) if chunks
-                          else np.zeros((0, *shape), dtype=dtype))
+            if not chunks:
+                col = np.zeros((0, *shape), dtype=dtype)
+            elif len(chunks) == 1:
+                col = chunks[0]
+            else:
+                col = np.concatenate(chunks)
+            self._chunks[name] = [col]
+            cols[name] = col
         return Path(**cols, files=tuple(self.files), end_dwell_s=self.end_dwell_s)
 
 

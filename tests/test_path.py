@@ -36,3 +36,36 @@ def test_path_columns_are_read_only():
     p = b.build()
     with pytest.raises(ValueError):
         p.length_mm[0] = 2.0
+
+
+def test_extend_copies_unless_told_and_build_shares_a_single_chunk():
+    start = np.zeros((2, 3))
+    end = np.array([[1.0, 0, 0], [2.0, 0, 0]])
+    cols = dict(kind=np.zeros(2, np.int8), start_mm=start, end_mm=end,
+                length_mm=np.array([1.0, 2.0]), line=np.array([1, 2], np.int32), feed_mm_s=10.0)
+    b = PathBuilder()
+    b.extend(**cols)
+    end[0, 0] = 9.0                       # the builder copied: the path keeps 1.0
+    p = b.build()
+    assert p.end_mm[0, 0] == 1.0
+    b = PathBuilder()
+    b.extend(copy=False, **cols)
+    p = b.build()
+    assert p.end_mm is end and p.line is cols["line"]   # taken over, not copied
+    assert not end.flags.writeable
+    b.set_last(exact_stop=True)           # after build: changes a copy, not the built path
+    assert not p.exact_stop[-1] and b.build().exact_stop[-1]
+
+
+def test_rows_and_chunks_keep_their_order_across_row_chunks(monkeypatch):
+    monkeypatch.setattr(PathBuilder, "ROW_CHUNK", 3)
+    b = PathBuilder()
+    for i in range(8):
+        b.add_line([i, 0, 0], [i + 1, 0, 0], line=i + 1, feed_mm_s=1.0)
+        if i == 4:
+            b.extend(kind=np.zeros(1, np.int8), start_mm=[[5, 0, 0]], end_mm=[[5, 1, 0]],
+                     length_mm=[1.0], line=[100])
+    b.set_last(exact_stop=True)
+    p = b.build()
+    assert list(p.line) == [1, 2, 3, 4, 5, 100, 6, 7, 8]
+    assert list(p.exact_stop) == [False] * 8 + [True]
