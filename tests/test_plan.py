@@ -221,6 +221,47 @@ def test_stopping_distance_matches_ruckig(v, a_share, jerk, accel):
     assert ours == pytest.approx(stopping_distance(v, a, accel, jerk), rel=1e-6, abs=1e-7)
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.floats(0.0, 300.0), st.floats(-1.0, 1.0), st.floats(500.0, 50000.0), st.floats(100.0, 5000.0))
+def test_stopping_distance_scalar_twin(v, a_share, jerk, accel):
+    from ncsim.plan._kernels import stopping_distance_scalar
+    from ncsim.plan.lookahead import stopping_distance_mm
+
+    a = a_share * accel
+    assert stopping_distance_scalar(v, a, jerk, accel) == pytest.approx(
+        float(stopping_distance_mm(v, a, jerk, accel)), rel=1e-12, abs=1e-12)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.integers(0, 40), st.integers(0, 12), st.integers(0, 2**32 - 1))
+def test_lookahead_caps_equal_window_slicing(n, depth, seed):
+    """The compiled look-ahead (monotone-queue window minima) against slicing and the
+    vectorised ramp reach of ncsim.plan.ramps: caps, and which ones the look-ahead lowered."""
+    from ncsim.plan._kernels import lookahead_caps
+    from ncsim.plan.ramps import ramp_reach_mm_s
+
+    rng = np.random.default_rng(seed)
+    s = np.concatenate([[0.0], np.cumsum(rng.uniform(0.0, 5.0, n))])
+    jerk = rng.choice([1000.0, 5000.0, 7000.0], n)     # ties in the windows on purpose
+    accel = rng.choice([500.0, 2500.0], n)
+    cap = rng.uniform(10.0, 500.0, n)
+    jcap = np.append(rng.uniform(10.0, 500.0, n), 0.0)
+    cap_limit = np.zeros(n, np.int8)
+    jlimit = np.zeros(n + 1, np.int8)
+    want_cap, want_jcap = cap.copy(), jcap.copy()
+    for k in range(n - depth - 1):
+        e = k + depth + 1
+        jw, aw = jerk[k:e].min(), accel[k:e].min()
+        want_cap[k] = min(cap[k], float(ramp_reach_mm_s(0.0, s[e] - s[k], jw, aw)))
+        want_jcap[k + 1] = min(jcap[k + 1], float(ramp_reach_mm_s(0.0, s[e] - s[k + 1], jw, aw)))
+    lowered, jlowered = want_cap < cap, want_jcap < jcap
+    lookahead_caps(cap, cap_limit, jcap, jlimit, s, jerk, accel, depth, int(Limit.LOOKAHEAD))
+    np.testing.assert_allclose(cap, want_cap, rtol=1e-12)
+    np.testing.assert_allclose(jcap, want_jcap, rtol=1e-12)
+    np.testing.assert_array_equal(cap_limit == Limit.LOOKAHEAD, lowered)
+    np.testing.assert_array_equal(jlimit == Limit.LOOKAHEAD, jlowered)
+
+
 @settings(max_examples=100, deadline=None)
 @given(st.lists(st.floats(-1e6, 1e6), min_size=0, max_size=60), st.integers(1, 12))
 def test_window_min_equals_slicing(values, width):
@@ -261,3 +302,30 @@ def test_a_block_without_motion_before_a_dwell_has_no_negative_duration(mikron):
     assert np.all(mo.duration_s >= 0.0), mo.duration_s
     assert np.all(np.diff(mo.t_start_s) >= 0.0)
     assert mo.t_start_s[3] - mo.t_end_s[2] == pytest.approx(0.1)   # the dwell, where it belongs
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_inner_states_equal_the_states_read_off_the_pieces(seed):
+    """The braking check's junction states, computed section by section without building the
+    pieces, are those junction_states reads off the full piece list (to rounding: durations
+    come from section-local times)."""
+    from ncsim.plan import lookahead as la
+
+    rng = np.random.default_rng(seed)
+    n = 400
+    lengths = rng.choice([0.05, 0.3, 2.0, 15.0], size=n) * rng.uniform(0.5, 1.5, n)
+    s_j = np.concatenate([[0.0], np.cumsum(lengths)])
+    cap = rng.choice([30.0, 80.0, 150.0], n)
+    jerk = rng.choice([2000.0, 5000.0, 50000.0], n)
+    accel = rng.choice([300.0, 2500.0], n)
+    p = np.where(rng.random(n + 1) < 0.3, rng.uniform(0, 120, n + 1), np.inf)
+    p[[0, n]] = 0.0
+    knots = np.unique(np.concatenate([[0, n], rng.choice(n, 60)]))
+    sol = la._solve_knots(knots, np.minimum(p, np.append(cap, np.inf)), cap, jerk, accel, s_j)
+    zeros = np.zeros(n + 1, dtype=np.int8)
+    _, _, v_ref, a_ref = la._pieces_and_junctions(sol, s_j, zeros, zeros, zeros,
+                                                  np.zeros(n + 1))
+    v_j, a_j = la._inner_states(sol, s_j)
+    np.testing.assert_allclose(v_j, v_ref, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(a_j, a_ref, rtol=1e-9, atol=1e-6)
+    assert np.count_nonzero(a_ref) > 20            # states inside ramps are compared

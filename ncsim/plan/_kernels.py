@@ -180,15 +180,16 @@ def _ramp_segments(v0, v1, jerk, accel):
 
 
 @njit(cache=True)
-def _emit_ramp(v_from, v_to, J, A, s, t, m, phase, limit, t0, s0, v0, a0, jj, ph, lim):
+def _emit_ramp(v_from, v_to, J, A, s, t, m, phase, limit, t0, s0, v0, a0, jj, ph, lim, write):
     """Append the (up to three) constant-jerk pieces of one ramp starting at path length s
-    and time t; returns the new time and piece count."""
+    and time t; returns the new time and piece count (``write`` False: count only)."""
     v, a = v_from, 0.0
     t1, t2, jsig = _ramp_segments(v_from, v_to, J, A)
     for dur, jk in ((t1, jsig), (t2, 0.0), (t1, -jsig)):
         if dur > 0.0:
-            t0[m], s0[m], v0[m], a0[m], jj[m] = t, s, v, a, jk
-            ph[m], lim[m] = phase, limit
+            if write:
+                t0[m], s0[m], v0[m], a0[m], jj[m] = t, s, v, a, jk
+                ph[m], lim[m] = phase, limit
             s = s + dur * (v + dur * (a / 2.0 + dur * jk / 6.0))
             v = v + dur * (a + dur * jk / 2.0)
             a = a + dur * jk
@@ -198,56 +199,130 @@ def _emit_ramp(v_from, v_to, J, A, s, t, m, phase, limit, t0, s0, v0, a0, jj, ph
 
 
 @njit(cache=True)
+def _emit_section(va, vp, vb, length, J, A, s_start, dwell, reason_up, reason_down,
+                  reason_steady, phase_a, phase_b, phase_c, phase_stop, limit_dwell, t, m,
+                  t0, s0, v0, a0, jj, ph, lim, write):
+    """The pieces of one section (knot feeds va, vb, peak vp) from time t and piece index m:
+    dwell at the start knot, ramp A (up to three pieces), steady B, ramp C. Returns the new
+    time and piece count."""
+    if dwell > 0.0:
+        if write:
+            t0[m], s0[m], v0[m], a0[m], jj[m] = t, s_start, 0.0, 0.0, 0.0
+            ph[m], lim[m] = phase_stop, limit_dwell
+        t += dwell
+        m += 1
+    # ramp A: v_a -> v_peak
+    t, m = _emit_ramp(va, vp, J, A, s_start, t, m, phase_a, reason_up,
+                      t0, s0, v0, a0, jj, ph, lim, write)
+    up = ramp_distance_scalar(va, vp, J, A)
+    down = ramp_distance_scalar(vp, vb, J, A)
+    steady = length - up - down
+    if steady > 0.0 and vp > 0.0:
+        if write:
+            t0[m], s0[m], v0[m], a0[m], jj[m] = t, s_start + up, vp, 0.0, 0.0
+            ph[m], lim[m] = phase_b, reason_steady
+        t += steady / vp
+        m += 1
+    # ramp C: v_peak -> v_b
+    return _emit_ramp(vp, vb, J, A, s_start + length - down, t, m, phase_c, reason_down,
+                      t0, s0, v0, a0, jj, ph, lim, write)
+
+
+@njit(cache=True)
+def _emit_sections(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_dwell,
+                   final_dwell, reason_up, reason_down, reason_steady,
+                   phase_a, phase_b, phase_c, phase_stop, limit_dwell,
+                   t0, s0, v0, a0, jj, ph, lim, sec_end_t, write):
+    """The pieces of every section (see :func:`section_pieces`); returns the piece count and
+    the end time. With ``write`` False nothing is stored: the same walk counts the pieces."""
+    n_sec = v_peak.shape[0]
+    m = 0
+    t = 0.0
+    for i in range(n_sec):
+        t, m = _emit_section(v_knot[i], v_peak[i], v_knot[i + 1], sec_len[i], sec_jerk[i],
+                             sec_accel[i], sec_s0[i], start_dwell[i], reason_up[i],
+                             reason_down[i], reason_steady[i], phase_a, phase_b, phase_c,
+                             phase_stop, limit_dwell, t, m, t0, s0, v0, a0, jj, ph, lim, write)
+        if write:
+            sec_end_t[i] = t
+    if final_dwell > 0.0:
+        if write:
+            t0[m], s0[m], v0[m], a0[m], jj[m] = (t, sec_s0[n_sec - 1] + sec_len[n_sec - 1], 0.0,
+                                                 0.0, 0.0)
+            ph[m], lim[m] = phase_stop, limit_dwell
+        t += final_dwell
+        m += 1
+    return m, t
+
+
+@njit(cache=True)
+def inner_junction_states(v_knot, v_peak, sec_len, sec_jerk, sec_accel, knots, s_junction):
+    """Feed and acceleration at every junction of a solved knot set without dwells, without
+    materialising the pieces: the pieces of each section with inner junctions (at most seven)
+    go to a small buffer, timed from the section's start, and its inner junctions are read
+    off them as :func:`junction_states` reads the whole piece list (same pieces, same Newton
+    solve; durations from section-local instead of absolute times, equal to rounding)."""
+    n1 = s_junction.shape[0]
+    n_sec = v_peak.shape[0]
+    v_j = np.zeros(n1)
+    a_j = np.zeros(n1)
+    t0 = np.empty(8)
+    s0 = np.empty(8)
+    v0 = np.empty(8)
+    a0 = np.empty(8)
+    jj = np.empty(8)
+    ph = np.empty(8, dtype=np.int8)
+    lim = np.empty(8, dtype=np.int8)
+    for i in range(n_sec):
+        v_j[knots[i]] = v_knot[i]
+        if knots[i + 1] - knots[i] < 2:
+            continue                      # no inner junction
+        t_end, m = _emit_section(v_knot[i], v_peak[i], v_knot[i + 1], sec_len[i], sec_jerk[i],
+                                 sec_accel[i], s_junction[knots[i]], 0.0, 0, 0, 0, 0, 1, 2, 3,
+                                 0, 0.0, 0, t0, s0, v0, a0, jj, ph, lim, True)
+        k = 0
+        for j in range(knots[i] + 1, knots[i + 1]):
+            target = s_junction[j]
+            while k + 1 < m and s0[k + 1] <= target:
+                k += 1
+            dt = (t0[k + 1] if k + 1 < m else t_end) - t0[k]
+            tau = _piece_time(s0[k], v0[k], a0[k], jj[k], dt, target)
+            t = t0[k] + tau
+            if t <= 0.0:                  # clamped to the knots' times, as junction_states
+                v_j[j] = v_knot[i]
+            elif t >= t_end:
+                v_j[j] = v_knot[i + 1]
+            else:
+                v_j[j] = v0[k] + tau * (a0[k] + tau * jj[k] / 2.0)
+                a_j[j] = a0[k] + tau * jj[k]
+    v_j[knots[n_sec]] = v_knot[n_sec]
+    return v_j, a_j
+
+
+@njit(cache=True)
 def section_pieces(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_dwell,
                    final_dwell, reason_up, reason_down, reason_steady,
                    phase_a, phase_b, phase_c, phase_stop, limit_dwell):
     """Constant-jerk pieces of every section: dwell at the start knot, ramp A (up to three
-    pieces), steady B, ramp C. Returns piece arrays and each section's end time."""
+    pieces), steady B, ramp C. Returns piece arrays and each section's end time. The arrays
+    are views of buffers sized for the most pieces a section can have (eight): the pages
+    past the last piece are never written, so they take no memory."""
     n_sec = v_peak.shape[0]
-    cap_pieces = 8 * n_sec + 1
-    t0 = np.empty(cap_pieces)
-    s0 = np.empty(cap_pieces)
-    v0 = np.empty(cap_pieces)
-    a0 = np.empty(cap_pieces)
-    jj = np.empty(cap_pieces)
-    ph = np.empty(cap_pieces, dtype=np.int8)
-    lim = np.empty(cap_pieces, dtype=np.int8)
+    size = 8 * n_sec + 1
     sec_end_t = np.empty(n_sec)
-    m = 0
-    t = 0.0
-    for i in range(n_sec):
-        s_start = sec_s0[i]
-        if start_dwell[i] > 0.0:
-            t0[m], s0[m], v0[m], a0[m], jj[m] = t, s_start, 0.0, 0.0, 0.0
-            ph[m], lim[m] = phase_stop, limit_dwell
-            t += start_dwell[i]
-            m += 1
-        va, vp, vb = v_knot[i], v_peak[i], v_knot[i + 1]
-        J, A = sec_jerk[i], sec_accel[i]
-        # ramp A: v_a -> v_peak
-        t, m = _emit_ramp(va, vp, J, A, s_start, t, m, phase_a, reason_up[i],
-                          t0, s0, v0, a0, jj, ph, lim)
-        up = ramp_distance_scalar(va, vp, J, A)
-        down = ramp_distance_scalar(vp, vb, J, A)
-        steady = sec_len[i] - up - down
-        if steady > 0.0 and vp > 0.0:
-            t0[m], s0[m], v0[m], a0[m], jj[m] = t, s_start + up, vp, 0.0, 0.0
-            ph[m], lim[m] = phase_b, reason_steady[i]
-            t += steady / vp
-            m += 1
-        # ramp C: v_peak -> v_b
-        t, m = _emit_ramp(vp, vb, J, A, s_start + sec_len[i] - down, t, m, phase_c,
-                          reason_down[i], t0, s0, v0, a0, jj, ph, lim)
-        sec_end_t[i] = t
-    if final_dwell > 0.0:
-        t0[m], s0[m], v0[m], a0[m], jj[m] = t, sec_s0[n_sec - 1] + sec_len[n_sec - 1], 0.0, 0.0, 0.0
-        ph[m], lim[m] = phase_stop, limit_dwell
-        t += final_dwell
-        m += 1
-    times = np.empty(m + 1)
-    times[:m] = t0[:m]
+    times = np.empty(size + 1)
+    s0 = np.empty(size)
+    v0 = np.empty(size)
+    a0 = np.empty(size)
+    jj = np.empty(size)
+    ph = np.empty(size, dtype=np.int8)
+    lim = np.empty(size, dtype=np.int8)
+    m, t = _emit_sections(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_dwell,
+                          final_dwell, reason_up, reason_down, reason_steady, phase_a, phase_b,
+                          phase_c, phase_stop, limit_dwell, times, s0, v0, a0, jj, ph, lim,
+                          sec_end_t, True)
     times[m] = t
-    return times, s0[:m].copy(), v0[:m].copy(), a0[:m].copy(), jj[:m].copy(), ph[:m].copy(), lim[:m].copy(), sec_end_t
+    return times[:m + 1], s0[:m], v0[:m], a0[:m], jj[:m], ph[:m], lim[:m], sec_end_t
 
 
 @njit(cache=True)
@@ -413,3 +488,181 @@ def removable_knots(peaks, caps, knot_caps, keep):
         else:
             group_cap, group_peak = caps[i], peaks[i]
     return remove
+
+
+# ---------------------------------------------------------------------------------------------
+# Look-ahead, knots and sections (ncsim.plan.lookahead): one pass each, no full-size temporaries
+# ---------------------------------------------------------------------------------------------
+
+@njit(cache=True)
+def lookahead_caps(cap, cap_limit, jcap, jlimit, s_junction, jerk, accel, depth, code):
+    """840D dynamic look-ahead, in place (see ``lookahead._apply_lookahead``): block k, whose
+    window k..k+depth ends inside the path, is capped at the feed one ramp can brake to rest
+    from within that window (jerk and acceleration: the window's least), and so is its end
+    junction. Window minima by monotone queues (ring buffers of depth + 2 entries)."""
+    n = cap.shape[0]
+    w = depth + 1
+    last = n - w                     # blocks k < last: the window end k + w is inside the path
+    if last <= 0:
+        return
+    size = w + 1
+    qj = np.empty(size, dtype=np.int64)
+    qa = np.empty(size, dtype=np.int64)
+    hj, nj, ha, na = 0, 0, 0, 0
+    for i in range(last + w - 1):
+        while nj > 0 and jerk[qj[(hj + nj - 1) % size]] >= jerk[i]:
+            nj -= 1
+        qj[(hj + nj) % size] = i
+        nj += 1
+        while na > 0 and accel[qa[(ha + na - 1) % size]] >= accel[i]:
+            na -= 1
+        qa[(ha + na) % size] = i
+        na += 1
+        k = i - w + 1
+        if k < 0:
+            continue
+        while qj[hj] < k:
+            hj = (hj + 1) % size
+            nj -= 1
+        while qa[ha] < k:
+            ha = (ha + 1) % size
+            na -= 1
+        jw, aw = jerk[qj[hj]], accel[qa[ha]]
+        e = k + w
+        block_cap = ramp_reach_scalar(0.0, s_junction[e] - s_junction[k], jw, aw)
+        if block_cap < cap[k]:
+            cap[k] = block_cap
+            cap_limit[k] = code
+        junction_cap = ramp_reach_scalar(0.0, s_junction[e] - s_junction[k + 1], jw, aw)
+        if junction_cap < jcap[k + 1]:
+            jcap[k + 1] = junction_cap
+            jlimit[k + 1] = code
+
+
+@njit(cache=True)
+def knots_and_reasons(p, cap, cap_limit, jcap, jlimit, rel, none_code, end_code):
+    """Knots (see ``lookahead._find_knots``) and, per junction, the limit a ramp heads to or
+    leaves it for. Junction k joins block k-1 (set point ``left``) and block k (``right``)."""
+    n = cap.shape[0]
+    knot = np.zeros(n + 1, dtype=np.bool_)
+    reason = np.empty(n + 1, dtype=np.int8)
+    for k in range(n + 1):
+        left = cap[k - 1] if k > 0 else math.inf
+        right = cap[k] if k < n else math.inf
+        lower = min(left, right)
+        if math.isinf(left) or math.isinf(right):
+            close = left == right
+        else:
+            close = abs(left - right) <= rel * abs(right) or left == right
+        knot[k] = p[k] < lower * (1.0 - rel) or not close or k == 0 or k == n
+        if left <= right:
+            r = cap_limit[k - 1] if k > 0 else 0
+        else:
+            r = cap_limit[k] if k < n else 0
+        if jcap[k] <= lower * (1.0 + rel):
+            r = jlimit[k]
+        reason[k] = r
+    reason[0] = jlimit[0] if jcap[0] < 0.5 else end_code
+    if jlimit[0] == none_code:
+        reason[0] = end_code
+    reason[n] = end_code if jlimit[n] == none_code else jlimit[n]
+    return np.flatnonzero(knot), reason
+
+
+@njit(cache=True)
+def section_minima(knots, p, cap, jerk, accel):
+    """Per section (blocks knots[i]..knots[i+1]-1): least jerk, acceleration and set point
+    of its blocks, least crossing cap of its inner junctions, and where the section's set
+    point comes from: the first block holding the least set point, or -(b + 2) for the end
+    junction of block b when an inner junction's cap is lower."""
+    ns = knots.shape[0] - 1
+    sec_jerk = np.empty(ns)
+    sec_accel = np.empty(ns)
+    block_min = np.empty(ns)
+    junction_min = np.empty(ns)
+    cap_from = np.empty(ns, dtype=np.int64)
+    for i in range(ns):
+        a, b = knots[i], knots[i + 1]
+        jm, am, bm, fb = jerk[a], accel[a], cap[a], a
+        jn, fj = math.inf, a
+        for blk in range(a, b):
+            jm = min(jm, jerk[blk])
+            am = min(am, accel[blk])
+            if cap[blk] < bm:
+                bm, fb = cap[blk], blk
+            if blk + 1 < b and p[blk + 1] < jn:
+                jn, fj = p[blk + 1], blk
+        sec_jerk[i], sec_accel[i], block_min[i], junction_min[i] = jm, am, bm, jn
+        cap_from[i] = -(fj + 2) if jn < bm else fb
+    return sec_jerk, sec_accel, block_min, junction_min, cap_from
+
+
+@njit(cache=True)
+def stopping_distance_scalar(v, a, jerk, accel):
+    """Scalar twin of :func:`ncsim.plan.lookahead.stopping_distance_mm`."""
+    ap = max(a, 0.0)
+    t = ap / jerk
+    if a >= 0.0:
+        return (v * t + ap * t * t / 2.0 - jerk * t * t * t / 6.0
+                + ramp_distance_scalar(v + ap * ap / (2.0 * jerk), 0.0, jerk, accel))
+    if -a < accel * (1.0 - 1e-12):
+        an = -a
+        t = an / jerk
+        v_s = v + an * an / (2.0 * jerk)
+        return ramp_distance_scalar(v_s, 0.0, jerk, accel) - (v_s * t - jerk * t * t * t / 6.0)
+    v_f = accel * accel / (2.0 * jerk)
+    return max(v * v - v_f * v_f, 0.0) / (2.0 * accel) + accel * accel * accel / (6.0 * jerk * jerk)
+
+
+@njit(cache=True)
+def unstoppable_junctions(v_j, a_j, knots, sec_jerk, sec_accel, s_junction, lookahead_end):
+    """Junctions (not knots, whose look-ahead window ``lookahead_end`` ends before the path
+    does) from whose feed and acceleration the tool cannot stop within the window: returns
+    their indices, sections and braking room (see ``lookahead._pin_unstoppable``)."""
+    n1 = s_junction.shape[0]
+    n = n1 - 1
+    ns = knots.shape[0] - 1
+    bad = np.empty(n1, dtype=np.int64)
+    sec_of = np.empty(n1, dtype=np.int64)
+    room_of = np.empty(n1)
+    m = 0
+    sec = 0
+    ki = 0
+    for i in range(n1):
+        while sec + 1 < ns and knots[sec + 1] <= i:
+            sec += 1
+        if ki < knots.shape[0] and knots[ki] == i:
+            ki += 1
+            continue
+        if lookahead_end[i] >= n:
+            continue
+        room = s_junction[lookahead_end[i]] - s_junction[i]
+        stop = stopping_distance_scalar(v_j[i], a_j[i], sec_jerk[sec], sec_accel[sec])
+        if stop > room * (1.0 + 1e-9) + 1e-9:
+            bad[m], sec_of[m], room_of[m] = i, sec, room
+            m += 1
+    return bad[:m].copy(), sec_of[:m].copy(), room_of[:m].copy()
+
+
+@njit(cache=True)
+def block_section_values(knots, sec_jerk, sec_accel, v_knot, v_peak, sec_len, s_junction, v_j):
+    """Per block: its section's jerk and acceleration, and the highest feed inside it -- its
+    end feeds, or the section's peak if the peak (or the steady phase) lies in the block."""
+    n = s_junction.shape[0] - 1
+    jerk = np.empty(n)
+    accel = np.empty(n)
+    feed_max = np.empty(n)
+    for i in range(knots.shape[0] - 1):
+        a, b = knots[i], knots[i + 1]
+        J, A = sec_jerk[i], sec_accel[i]
+        s0 = s_junction[a]
+        peak_from = s0 + ramp_distance_scalar(v_knot[i], v_peak[i], J, A)
+        peak_to = s0 + sec_len[i] - ramp_distance_scalar(v_peak[i], v_knot[i + 1], J, A)
+        for blk in range(a, b):
+            jerk[blk] = J
+            accel[blk] = A
+            f = max(v_j[blk], v_j[blk + 1])
+            if s_junction[blk] <= peak_to + 1e-9 and s_junction[blk + 1] >= peak_from - 1e-9:
+                f = max(f, v_peak[i])
+            feed_max[blk] = f
+    return jerk, accel, feed_max

@@ -58,8 +58,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ncsim.plan._kernels import (creep_caps, junction_states, knot_feeds_array, peak_feeds, reach_array,
-                       removable_knots, section_pieces)
+from ncsim.plan._kernels import (block_section_values, creep_caps, inner_junction_states,
+                                 junction_states,
+                                 knot_feeds_array, knots_and_reasons, lookahead_caps, peak_feeds,
+                                 reach_array,
+                                 removable_knots, section_minima, section_pieces,
+                                 unstoppable_junctions)
 from ncsim.machine import MachineSpec
 from ncsim.motion import FULL_MODEL, Limit, ModelOptions, Motion, Phase
 from ncsim.path import Path
@@ -85,48 +89,53 @@ def plan(path: Path, machine: MachineSpec, options: ModelOptions = FULL_MODEL, *
         path = limits.path
     n = path.n
     length = np.asarray(path.length_mm, dtype=np.float64)
-    s_junction = np.concatenate([[0.0], np.cumsum(length)])
+    s_junction = np.empty(n + 1)
+    s_junction[0] = 0.0
+    np.cumsum(length, out=s_junction[1:])
 
+    # the caps are lowered here (look-ahead); the ramp limits and dwells are only read
     cap = np.array(limits.cap_mm_s, dtype=np.float64)
     cap_limit = np.array(limits.cap_limit, dtype=np.int8)
-    jerk = np.array(limits.jerk_mm_s3, dtype=np.float64)
-    accel = np.array(limits.accel_mm_s2, dtype=np.float64)
+    jerk = np.asarray(limits.jerk_mm_s3, dtype=np.float64)
+    accel = np.asarray(limits.accel_mm_s2, dtype=np.float64)
     jcap = np.array(limits.junction_cap_mm_s, dtype=np.float64)
     jlimit = np.array(limits.junction_limit, dtype=np.int8)
-    dwell = np.array(limits.junction_dwell_s, dtype=np.float64)
+    dwell = np.asarray(limits.junction_dwell_s, dtype=np.float64)
     if n == 0:
         return _empty_motion(path, machine, options, dwell)
 
     cap = _transparent_zero_length(cap, length)
     nc_block = getattr(limits, "nc_block", None)
-    if options.lookahead:
-        _apply_lookahead(cap, cap_limit, jcap, jlimit, s_junction, jerk, accel,
-                         machine.ncu.lookahead_blocks, nc_block)
+    depth = machine.ncu.lookahead_blocks if options.lookahead else None
+    if depth is not None:
+        _apply_lookahead(cap, cap_limit, jcap, jlimit, s_junction, jerk, accel, depth, nc_block)
 
     # crossing cap of every junction, including the set points of the blocks it joins
     p = jcap.copy()
-    p[:-1] = np.minimum(p[:-1], cap)
-    p[1:] = np.minimum(p[1:], cap)
+    np.minimum(p[:-1], cap, out=p[:-1])
+    np.minimum(p[1:], cap, out=p[1:])
     p[0] = min(p[0], 0.0) if np.isfinite(p[0]) else 0.0
     p[-1] = 0.0
-    p = np.maximum(p, 0.0)
+    np.maximum(p, 0.0, out=p)
 
     knots, knot_reason = _find_knots(p, cap, cap_limit, jcap, jlimit)
     keep = p <= 0.0
     keep[[0, n]] = True
     lookahead_end = None
-    if options.lookahead:
+    if depth is not None:
         # junction k is crossed while block k-1 runs: blocks up to k-1+D are prepared
-        lookahead_end = _prepared_end(n, machine.ncu.lookahead_blocks, nc_block)
+        lookahead_end = _prepared_end(n, depth, nc_block)
     sol, p = _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end)
+    del p, keep, lookahead_end
     knots = sol["knots"]
     pieces, t_arrive, v_j, a_j = _pieces_and_junctions(sol, s_junction, knot_reason,
                                                        cap_limit, jlimit, dwell)
-    block_of_section = np.searchsorted(knots, np.arange(n), side="right") - 1
-    sec_jerk, sec_accel = sol["sec_jerk"][block_of_section], sol["sec_accel"][block_of_section]
-    feed_max = _block_feed_max(v_j, sol, s_junction, block_of_section)
-    t_start = t_arrive[:-1] + dwell[:-1]
+    sec_jerk, sec_accel, feed_max = block_section_values(
+        knots, sol["sec_jerk"], sol["sec_accel"], sol["v_knot"], sol["v_peak"], sol["sec_len"],
+        s_junction, v_j)
     t_end = t_arrive[1:]
+    # without dwells a block starts when the previous one ends: share the arrival times
+    t_start = t_arrive[:-1] + dwell[:-1] if np.any(dwell[:-1] > 0.0) else t_arrive[:-1]
     knot_mask = np.zeros(n + 1, dtype=bool)
     knot_mask[knots] = True
 
@@ -195,20 +204,19 @@ def _apply_lookahead(cap, cap_limit, jcap, jlimit, s_junction, jerk, accel, dept
 
     The window counts NC blocks: rows that the compressor joins into one polynomial block
     share an ``nc_block`` (``PathLimits.nc_block``) and count once; the ramp limits are then
-    the least over the whole NC blocks of the window.
+    the least over the whole NC blocks of the window. Without NC blocks (every row one), one
+    compiled pass in place (``_kernels.lookahead_caps``, window minima by monotone queues).
     """
+    if nc_block is None:
+        lookahead_caps(cap, cap_limit, jcap, jlimit, s_junction, np.ascontiguousarray(jerk),
+                       np.ascontiguousarray(accel), int(depth), int(Limit.LOOKAHEAD))
+        return
     n = len(cap)
     k = np.arange(n)
     index, first = _nc_blocks(nc_block, n)
-    if index is None:
-        end = k + depth + 1
-        # window minimum of the ramp limits over blocks k..k+depth
-        j_win = window_min(jerk, depth + 1)
-        a_win = window_min(accel, depth + 1)
-    else:
-        end = first[np.minimum(index + depth + 1, len(first) - 1)]
-        j_win = window_min(np.minimum.reduceat(jerk, first[:-1]), depth + 1)[index]
-        a_win = window_min(np.minimum.reduceat(accel, first[:-1]), depth + 1)[index]
+    end = first[np.minimum(index + depth + 1, len(first) - 1)]
+    j_win = window_min(np.minimum.reduceat(jerk, first[:-1]), depth + 1)[index]
+    a_win = window_min(np.minimum.reduceat(accel, first[:-1]), depth + 1)[index]
     cut = end < n
     if not np.any(cut):
         return
@@ -244,44 +252,25 @@ def window_min(x: np.ndarray, width: int) -> np.ndarray:
 
 def _find_knots(p, cap, cap_limit, jcap, jlimit):
     """Zero-acceleration points: ends, junctions that limit below both set points, and
-    changes of set point. Returns the knot junction indices and, per junction, the reason
-    a ramp heads to or leaves it (a ``Limit``)."""
-    n = len(cap)
-    left = np.concatenate([[np.inf], cap])    # set point of the block ending at junction k
-    right = np.concatenate([cap, [np.inf]])   # set point of the block starting at junction k
-    lower = np.minimum(left, right)
-    own = p < lower * (1.0 - _REL)
-    change = ~np.isclose(left, right, rtol=_REL, atol=0.0)
-    change[0] = change[-1] = True
-    knot = own | change
-    knots = np.nonzero(knot)[0]
-
-    reason = np.full(n + 1, Limit.NONE, dtype=np.int8)
-    lower_side = np.where(left <= right, np.concatenate([[0], cap_limit]),
-                          np.concatenate([cap_limit, [0]]))
-    reason[:] = lower_side
-    junction_binds = jcap <= lower * (1.0 + _REL)
-    reason[junction_binds] = jlimit[junction_binds]
-    reason[0] = jlimit[0] if jcap[0] < 0.5 else Limit.PROGRAM_END
-    reason[0] = Limit.PROGRAM_END if jlimit[0] == Limit.NONE else reason[0]
-    reason[n] = Limit.PROGRAM_END if jlimit[n] == Limit.NONE else jlimit[n]
-    return knots, reason
+    changes of set point (relative ``_REL``). Returns the knot junction indices and, per
+    junction, the reason a ramp heads to or leaves it (a ``Limit``): the junction's own limit
+    when its cap binds, else the limit of the lower set point beside it
+    (``_kernels.knots_and_reasons``)."""
+    return knots_and_reasons(p, cap, cap_limit, jcap, jlimit, _REL, int(Limit.NONE),
+                             int(Limit.PROGRAM_END))
 
 
 def _solve_knots(knots, p, cap, jerk, accel, s_junction):
     """Section limits, knot feeds (both passes) and section peaks (eq. 16) for a knot set.
 
     A section's set point is the lowest set point of its blocks and crossing cap of its
-    inner junctions, so its law can exceed neither.
+    inner junctions, so its law can exceed neither. ``sec_cap_from`` says where it comes
+    from: the first block holding the lowest set point (>= 0), or -(b + 2) for the end
+    junction of block b when an inner junction holds a lower cap (``_kernels.section_minima``).
     """
-    sec_first = knots[:-1]
     sec_len = s_junction[knots[1:]] - s_junction[knots[:-1]]
-    sec_jerk = np.minimum.reduceat(jerk, sec_first)
-    sec_accel = np.minimum.reduceat(accel, sec_first)
-    end_cap = p[1:].copy()                  # crossing cap at the end of each block ...
-    end_cap[knots[1:] - 1] = np.inf         # ... unless that end is a knot
-    block_min = np.minimum.reduceat(cap, sec_first)
-    junction_min = np.minimum.reduceat(end_cap, sec_first)
+    sec_jerk, sec_accel, block_min, junction_min, cap_from = section_minima(
+        knots, p, cap, jerk, accel)
     sec_cap = np.minimum(block_min, junction_min)
     w = p[knots].copy()                     # a knot is also in its sections' set points
     w[:-1] = np.minimum(w[:-1], sec_cap)
@@ -289,20 +278,7 @@ def _solve_knots(knots, p, cap, jerk, accel, s_junction):
     v_knot = knot_feeds_array(w, sec_len, sec_jerk, sec_accel)
     v_peak = peak_feeds(v_knot[:-1], v_knot[1:], sec_len, sec_jerk, sec_accel, sec_cap)
     return dict(knots=knots, sec_len=sec_len, sec_jerk=sec_jerk, sec_accel=sec_accel,
-                sec_cap=sec_cap, v_knot=v_knot, v_peak=v_peak,
-                sec_cap_from=_argmin_per_section(cap, end_cap, sec_first, block_min, junction_min))
-
-
-def _argmin_per_section(cap, end_cap, sec_first, block_min, junction_min):
-    """Where each section's set point comes from: the first block holding the lowest set
-    point (>= 0), or -(j + 1) for the inner junction j holding a lower crossing cap."""
-    n = len(cap)
-    sec_of_block = np.repeat(np.arange(len(sec_first)), np.diff(np.append(sec_first, n)))
-    idx = np.arange(n)
-    first_block = np.minimum.reduceat(np.where(cap <= block_min[sec_of_block], idx, n), sec_first)
-    first_junction = np.minimum.reduceat(np.where(end_cap <= junction_min[sec_of_block], idx, n),
-                                         sec_first)
-    return np.where(junction_min < block_min, -(first_junction + 2), first_block)
+                sec_cap=sec_cap, v_knot=v_knot, v_peak=v_peak, sec_cap_from=cap_from)
 
 
 def _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end,
@@ -318,7 +294,8 @@ def _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end,
     lowest set point, so a merge never lowers the set point under a section's peak.
 
     One condition is on the state, not the feed: with a finite look-ahead the tool must be
-    able to stop, from its feed *and acceleration* at junction k, before ``lookahead_end[k]``.
+    able to stop, from its feed *and acceleration* at junction k, before ``lookahead_end[k]``
+    (the end of the blocks prepared while block k - 1 runs; None: no look-ahead).
     A junction passed while still accelerating may fail that although its feed is below the
     cap; it becomes a knot for good (at a knot the acceleration is zero and the cap suffices).
     """
@@ -343,31 +320,26 @@ def _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end, 
     The critical state on a ramp towards V is where its last -J piece begins: stopping from
     there takes that piece plus one ramp from V to rest
     (``_kernels.approach_stop_distance_scalar``). A
-    section whose rise fails at some junction is rebuilt as a creep (``_kernels.creep_caps``):
-    ramps to the highest approach feed that passes, each ending at a new knot, then the next
-    (smaller) step, until within ``CREEP_TOL`` of the set point, where the feed holds -- as an
-    NC re-planning at every new block edges up to the braking-limited feed. Repeats until no
-    junction fails.
+    section whose rise fails at some junction (``_kernels.unstoppable_junctions``) is rebuilt
+    as a creep (``_kernels.creep_caps``): ramps to the highest approach feed that passes, each
+    ending at a new knot, then the next (smaller) step, until within ``CREEP_TOL`` of the set
+    point, where the feed holds -- as an NC re-planning at every new block edges up to the
+    braking-limited feed. Repeats until no junction fails. Lowers ``p`` and sets ``keep`` in
+    place.
     """
-    p = p.copy()
-    n1 = len(s_junction)
-    room = s_junction[lookahead_end] - s_junction
     for _ in range(rounds):
         knots = sol["knots"]
         v_j, a_j = _inner_states(sol, s_junction)
-        sec = np.clip(np.searchsorted(knots, np.arange(n1), side="right") - 1, 0,
-                      len(sol["v_peak"]) - 1)
-        stop = stopping_distance_mm(v_j, a_j, sol["sec_jerk"][sec], sol["sec_accel"][sec])
-        bad = stop > room * (1.0 + 1e-9) + 1e-9
-        bad[knots] = False
-        bad[lookahead_end >= n1 - 1] = False  # the window reaches the real (planned) end
-        if not np.any(bad):
+        bad, bad_sec, bad_room = unstoppable_junctions(
+            v_j, a_j, knots.astype(np.int64), sol["sec_jerk"], sol["sec_accel"], s_junction,
+            lookahead_end)
+        del v_j, a_j
+        if len(bad) == 0:
             break
-        bad_idx = np.nonzero(bad)[0]
-        sections, first = np.unique(sec[bad_idx], return_index=True)
+        sections = np.unique(bad_sec)
         # the tightest room over the failing section bounds every step of its creep
         sec_room = np.full(len(sol["v_peak"]), np.inf)
-        np.minimum.at(sec_room, sec[bad_idx], room[bad_idx])
+        np.minimum.at(sec_room, bad_sec, bad_room)
         creep_caps(p, keep, s_junction, knots[sections].astype(np.int64),
                    knots[sections + 1].astype(np.int64), sol["v_knot"][sections],
                    sec_room[sections], sol["sec_jerk"][sections], sol["sec_accel"][sections],
@@ -378,11 +350,10 @@ def _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end, 
 
 
 def _inner_states(sol, s_junction):
-    """Feed and acceleration at every junction for a solved knot set."""
-    dwell = np.zeros(len(s_junction))
-    zeros = np.zeros(len(s_junction), dtype=np.int8)
-    _, _, v_j, a_j = _pieces_and_junctions(sol, s_junction, zeros, zeros, zeros, dwell)
-    return v_j, a_j
+    """Feed and acceleration at every junction for a solved knot set (without building the
+    pieces: ``_kernels.inner_junction_states``)."""
+    return inner_junction_states(sol["v_knot"], sol["v_peak"], sol["sec_len"], sol["sec_jerk"],
+                                 sol["sec_accel"], sol["knots"].astype(np.int64), s_junction)
 
 
 def stopping_distance_mm(v_mm_s, a_mm_s2, jerk_mm_s3, accel_mm_s2):
@@ -437,21 +408,6 @@ def _pieces_and_junctions(sol, s_junction, knot_reason, cap_limit, junction_limi
                                       s_junction, is_knot, knot_time, sol["v_knot"],
                                       np.ascontiguousarray(dwell[knots], dtype=np.float64))
     return pieces, t_arr, v_j, a_j
-
-
-def _block_feed_max(v_j, sol, s_junction, block_sec):
-    """Highest feed inside each block: its end feeds, or its section's peak if the peak (or
-    the steady phase) lies in the block."""
-    knots, v_knot, v_peak = sol["knots"], sol["v_knot"], sol["v_peak"]
-    jerk, accel, length = sol["sec_jerk"], sol["sec_accel"], sol["sec_len"]
-    s0 = s_junction[knots[:-1]]
-    peak_from = s0 + ramp_distance_mm(v_knot[:-1], v_peak, jerk, accel)
-    peak_to = s0 + length - ramp_distance_mm(v_peak, v_knot[1:], jerk, accel)
-    b = np.arange(len(block_sec))
-    sec = block_sec
-    overlap = (s_junction[b] <= peak_to[sec] + 1e-9) & (s_junction[b + 1] >= peak_from[sec] - 1e-9)
-    fmax = np.maximum(v_j[:-1], v_j[1:])
-    return np.where(overlap, np.maximum(fmax, v_peak[sec]), fmax)
 
 
 def _empty_motion(path, machine, options, dwell):

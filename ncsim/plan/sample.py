@@ -286,28 +286,36 @@ def sample_motion(motion: Motion, dt_s: float | None = None, *, t_s: np.ndarray 
 # ---------------------------------------------------------------------------------------------
 
 def limit_labels(codes: np.ndarray) -> np.ndarray:
-    """Public names (``ncu_path_jerk`` ...) of an array of :class:`~ncsim.motion.Limit` codes."""
-    table = np.array([m.label for m in Limit])
+    """Public names (``ncu_path_jerk`` ...) of an array of :class:`~ncsim.motion.Limit` codes,
+    as an object array of shared strings (8 bytes a row)."""
+    table = np.array([m.label for m in Limit], dtype=object)
     return table[np.asarray(codes, dtype=np.int64)]
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    view = a.view()
+    view.flags.writeable = False
+    return view
 
 
 def block_table(motion: Motion) -> dict[str, np.ndarray]:
     """One row per block, for reports and ``--json``: where it is, when it runs, how fast and
     why, and the time lost against the programmed feed (``duration - length / F``; a rapid
-    block, programmed at infinite feed, loses its whole duration)."""
+    block, programmed at infinite feed, loses its whole duration). Columns taken from the
+    path and the motion are read-only views, not copies (a million blocks stay cheap)."""
     path = motion.path
     duration = motion.duration_s
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ideal = np.where(path.feed_mm_s > 0, path.length_mm / path.feed_mm_s, np.nan)
+    ideal = np.divide(path.length_mm, path.feed_mm_s, out=np.full(path.n, np.nan),
+                      where=path.feed_mm_s > 0)
     return {
         "block": np.arange(path.n, dtype=np.int64),
         "line": path.line.astype(np.int64),
-        "length_mm": path.length_mm.copy(),
-        "t_start_s": motion.t_start_s.copy(),
+        "length_mm": _read_only(path.length_mm),
+        "t_start_s": _read_only(motion.t_start_s),
         "duration_s": duration,
-        "feed_programmed_mm_s": path.feed_mm_s.copy(),
-        "feed_max_mm_s": motion.feed_max_mm_s.copy(),
-        "cap_mm_s": motion.cap_mm_s.copy(),
+        "feed_programmed_mm_s": _read_only(path.feed_mm_s),
+        "feed_max_mm_s": _read_only(motion.feed_max_mm_s),
+        "cap_mm_s": _read_only(motion.cap_mm_s),
         "limit": limit_labels(motion.cap_limit),
-        "time_lost_s": duration - ideal,
+        "time_lost_s": np.subtract(duration, ideal, out=ideal),
     }

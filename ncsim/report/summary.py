@@ -31,7 +31,7 @@ import numpy as np
 
 from ncsim import __version__
 from ncsim.motion import LIMIT_LABELS, Limit, Phase
-from ncsim.plan.sample import block_table
+from ncsim.plan.sample import block_table, limit_labels
 from ncsim.report.losses import cause_rows, losses
 from ncsim.units import feed_from_mm_s, mm_min_to_mm_s, mm_s_to_mm_min
 
@@ -77,19 +77,27 @@ def block_rows(motion, loss=None) -> dict[str, np.ndarray]:
     loss = losses(motion) if loss is None else loss
     reference = loss.reference_mm_s
     rows["time_lost_s"] = loss.lost_s
-    rows["lost_to"] = np.asarray(LIMIT_LABELS, dtype=object)[loss.cause.astype(np.int64)]
-    mid = 0.5 * (motion.t_start_s + motion.t_end_s)
-    k = np.clip(np.searchsorted(motion.piece_t_s, mid, side="right") - 1, 0, len(motion.piece_limit) - 1)
-    holding = (np.asarray(LIMIT_LABELS, dtype=object)[motion.piece_limit[k]] if len(motion.piece_limit)
-               else np.full(path.n, Limit.NONE.label, dtype=object))
-    labels = np.asarray(LIMIT_LABELS, dtype=object)
+    rows["lost_to"] = limit_labels(loss.cause)
+    # what holds the feed in the middle of the block, as Limit codes (labels made once, last)
+    mid = np.add(motion.t_start_s, motion.t_end_s)
+    mid *= 0.5
+    k = np.searchsorted(motion.piece_t_s, mid, side="right")
+    del mid
+    if len(motion.piece_limit):
+        k -= 1
+        np.clip(k, 0, len(motion.piece_limit) - 1, out=k)
+        code = motion.piece_limit[k]
+    else:
+        code = np.full(path.n, int(Limit.NONE), dtype=np.int8)
+    del k
     set_point_binds = motion.cap_mm_s < reference * (1 - 1e-9)
     reached = motion.feed_max_mm_s >= reference * (1 - 1e-3)
-    label = np.where(set_point_binds, labels[motion.cap_limit],
-                     np.where(reached, Limit.PROGRAMMED.label, holding))
+    code[reached] = int(Limit.PROGRAMMED)
+    code[set_point_binds] = motion.cap_limit[set_point_binds]
     # a rapid that reaches its speed is held by its set-point limit (the axis velocity)
-    label = np.where(path.rapid & reached, labels[motion.cap_limit], label)
-    rows["limit"] = label
+    held = path.rapid & reached
+    code[held] = motion.cap_limit[held]
+    rows["limit"] = limit_labels(code)
     rows["file_index"] = path.file_index.astype(np.int64)
     return rows
 
