@@ -31,3 +31,15 @@ def mikron():
     from ncsim.machine import load_machine
 
     return load_machine("mikron")
+
+
+@pytest.fixture(autouse=True)
+def fresh_kernel_choice():
+    """Each test starts as a fresh ``ncsim`` process does: no compiled kernel has run yet, so
+    small inputs run as plain Python (``ncsim.jit``). Without this, a test after one that ran
+    a compiled kernel would compile (and, on a cold numba cache, print the compile notice)
+    where the real command would not."""
+    from ncsim import jit
+
+    jit._active = False
+    yield
