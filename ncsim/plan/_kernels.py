@@ -570,16 +570,17 @@ def knots_and_reasons(p, cap, cap_limit, jcap, jlimit, rel, none_code, end_code)
 
 
 @njit(cache=True)
-def section_minima(knots, p, cap, jerk, accel):
-    """Per section (blocks knots[i]..knots[i+1]-1): least jerk, acceleration and set point
-    of its blocks, least crossing cap of its inner junctions, and where the section's set
-    point comes from: the first block holding the least set point, or -(b + 2) for the end
-    junction of block b when an inner junction's cap is lower."""
+def section_minima(knots, p, cap, jerk, accel, s_junction):
+    """Per section (blocks knots[i]..knots[i+1]-1): its length, least jerk and acceleration
+    of its blocks, its set point -- the least set point of its blocks and crossing cap of its
+    inner junctions -- and where that comes from: the first block holding the least set
+    point, or -(b + 2) for the end junction of block b when an inner junction's cap is
+    lower."""
     ns = knots.shape[0] - 1
+    sec_len = np.empty(ns)
     sec_jerk = np.empty(ns)
     sec_accel = np.empty(ns)
-    block_min = np.empty(ns)
-    junction_min = np.empty(ns)
+    sec_cap = np.empty(ns)
     cap_from = np.empty(ns, dtype=np.int64)
     for i in range(ns):
         a, b = knots[i], knots[i + 1]
@@ -592,9 +593,11 @@ def section_minima(knots, p, cap, jerk, accel):
                 bm, fb = cap[blk], blk
             if blk + 1 < b and p[blk + 1] < jn:
                 jn, fj = p[blk + 1], blk
-        sec_jerk[i], sec_accel[i], block_min[i], junction_min[i] = jm, am, bm, jn
+        sec_len[i] = s_junction[b] - s_junction[a]
+        sec_jerk[i], sec_accel[i] = jm, am
+        sec_cap[i] = math.nan if bm != bm or jn != jn else min(bm, jn)   # np.minimum
         cap_from[i] = -(fj + 2) if jn < bm else fb
-    return sec_jerk, sec_accel, block_min, junction_min, cap_from
+    return sec_len, sec_jerk, sec_accel, sec_cap, cap_from
 
 
 @njit(cache=True)

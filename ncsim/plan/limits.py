@@ -102,7 +102,8 @@ other value is treated as 601); junction n also gets ``path.end_dwell_s``.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -135,7 +136,8 @@ class PathLimits:
     jerk_mm_s3: np.ndarray      # tangential jerk in force for phases A/C
     accel_mm_s2: np.ndarray     # tangential acceleration in force (> 0)
     alpha_c_rad: np.ndarray     # tangent direction angle at alpha_c in the arc's plane; NaN: line
-    candidates: dict[str, np.ndarray]  # Limit label -> that limit per block (+inf: n/a)
+    candidates: Mapping[str, np.ndarray]  # Limit label -> that limit per block (+inf: n/a);
+                                          # from path_limits: computed when first read
     # -- per junction (n + 1) -------------------------------------------------------------------
     junction_cap_mm_s: np.ndarray  # crossing cap: +inf unconstrained, 0 stop
     junction_limit: np.ndarray     # int8 Limit of the junction cap
@@ -149,8 +151,9 @@ class PathLimits:
         for name in ("cap_mm_s", "cap_limit", "jerk_mm_s3", "accel_mm_s2", "alpha_c_rad",
                      "junction_cap_mm_s", "junction_limit", "junction_dwell_s"):
             getattr(self, name).setflags(write=False)
-        for arr in self.candidates.values():
-            arr.setflags(write=False)
+        if isinstance(self.candidates, dict):
+            for arr in self.candidates.values():
+                arr.setflags(write=False)
 
     @property
     def n_blocks(self) -> int:
@@ -162,10 +165,43 @@ def path_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_M
     (semantics in the module docstring), on the path as the 840D runs it: compressed runs and
     G641-G645 rounding blocks (:mod:`ncsim.plan.hsm`). ``PathLimits.path`` is that path (the
     programmed one when no HSM mode changes it), the one the planner plans."""
+    limits = _path_limits(path, machine, options)
+    return replace(limits, candidates=LazyCandidates(
+        lambda: _path_limits(path, machine, options).candidates))
+
+
+def _path_limits(path: Path, machine: MachineSpec, options: ModelOptions) -> PathLimits:
     from ncsim.plan.hsm import prepare
 
     prepared = prepare(path, machine, options)
     return prepared.apply(block_limits(prepared.path, machine, options), machine, options)
+
+
+class LazyCandidates(Mapping):
+    """The eq. 12 candidates of :func:`path_limits`, computed again when first read (the same
+    computation, so the same values): the planner needs only their minimum, and six arrays
+    the size of the path would stay in memory for nothing (46 MiB at a million blocks)."""
+
+    def __init__(self, compute) -> None:
+        self._compute = compute
+        self._values: dict[str, np.ndarray] | None = None
+
+    def _get(self) -> dict[str, np.ndarray]:
+        if self._values is None:
+            values = self._compute()
+            for arr in values.values():
+                arr.setflags(write=False)
+            self._values, self._compute = dict(values), None
+        return self._values
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        return self._get()[key]
+
+    def __iter__(self):
+        return iter(self._get())
+
+    def __len__(self) -> int:
+        return len(self._get())
 
 
 def block_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_MODEL) -> PathLimits:

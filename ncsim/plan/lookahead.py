@@ -268,11 +268,9 @@ def _solve_knots(knots, p, cap, jerk, accel, s_junction):
     from: the first block holding the lowest set point (>= 0), or -(b + 2) for the end
     junction of block b when an inner junction holds a lower cap (``_kernels.section_minima``).
     """
-    sec_len = s_junction[knots[1:]] - s_junction[knots[:-1]]
-    sec_jerk, sec_accel, block_min, junction_min, cap_from = section_minima(
-        knots, p, cap, jerk, accel)
-    sec_cap = np.minimum(block_min, junction_min)
-    w = p[knots].copy()                     # a knot is also in its sections' set points
+    sec_len, sec_jerk, sec_accel, sec_cap, cap_from = section_minima(
+        knots, p, cap, jerk, accel, s_junction)
+    w = p[knots]                            # a knot is also in its sections' set points
     w[:-1] = np.minimum(w[:-1], sec_cap)
     w[1:] = np.minimum(w[1:], sec_cap)
     v_knot = knot_feeds_array(w, sec_len, sec_jerk, sec_accel)
@@ -308,7 +306,9 @@ def _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end,
         remove = removable_knots(sol["v_peak"], sol["sec_cap"], p[k], keep[k])
         if not np.any(remove):
             break
-        sol = _solve_knots(k[~remove], p, cap, jerk, accel, s_junction)
+        k = k[~remove]
+        sol = None                      # the old solution goes before the new one is made
+        sol = _solve_knots(k, p, cap, jerk, accel, s_junction)
     if lookahead_end is not None:
         sol, p = _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end)
     return sol, p
@@ -345,6 +345,7 @@ def _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end, 
                    sec_room[sections], sol["sec_jerk"][sections], sol["sec_accel"][sections],
                    sol["sec_cap"][sections], CREEP_TOL)
         new_knots = np.union1d(knots, np.nonzero(keep)[0])
+        sol = knots = None
         sol = _solve_knots(new_knots, p, cap, jerk, accel, s_junction)
     return sol, p
 
