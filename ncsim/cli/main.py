@@ -13,6 +13,7 @@ that ``ncsim --help`` is quick and ``ncsim run`` never imports matplotlib.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import sys
@@ -351,7 +352,7 @@ def run_cmd(program, machine_name, as_json, top, trace_file, dt_s, trace_columns
     lost by cause (feed moves and rapids apart), and the blocks that lose the most time with
     their line, the limit that holds them and what they lose the time to."""
     from ncsim.report import summary as report
-    from ncsim.pipeline import STAGES, simulate
+    from ncsim.pipeline import STAGES, release_freed_memory, simulate
 
     options = model_options(params)
     _text_only_feed_unit(feed_unit, as_json)
@@ -365,6 +366,10 @@ def run_cmd(program, machine_name, as_json, top, trace_file, dt_s, trace_columns
     try:
         sim = simulate(program, machine_name, options, setup_offsets=params["setup_file"],
                        progress=progress, nc_options=nc)
+        # nothing below reads the per-block limits (the motion has what it needs): they go
+        # before the summary, the memory of a large run's peak
+        sim = dataclasses.replace(sim, limits=None)
+        release_freed_memory()
         check = None
         if crosscheck:
             from ncsim.plan.crosscheck import crosscheck as run_crosscheck
