@@ -323,8 +323,8 @@ def warmup_program(n_blocks: int = 400) -> str:
 
 
 def warmup(machine: MachineSpec | str | FsPath = "mikron") -> float:
-    """Compile numba's versions of every kernel of ``simulate``, the CSV trace writer and
-    ``ncsim parse``'s row writer (or load them from numba's cache), so that no later run
+    """Compile numba's versions of every kernel of ``simulate``, the summary, the CSV trace
+    writer and ``ncsim parse``'s row writer (or load them from numba's cache), so that no later run
     compiles. Returns the seconds it took (10-20 s the first time after installing, under
     1 s after)."""
     import io
@@ -333,6 +333,7 @@ def warmup(machine: MachineSpec | str | FsPath = "mikron") -> float:
     from ncsim.plan.sample import sample_motion
     from ncsim.report.csvio import write_trace_csv
     from ncsim.report.pathtext import format_segments
+    from ncsim.report.summary import summary
 
     t0 = time.perf_counter()
     spec = resolve_machine(machine)
@@ -346,4 +347,5 @@ def warmup(machine: MachineSpec | str | FsPath = "mikron") -> float:
         write_trace_csv(trace, io.BytesIO())
         write_trace_csv(trace, io.BytesIO(), columns="all")
         format_segments(sim.path)
+        summary(sim, include_blocks=False)
     return time.perf_counter() - t0
