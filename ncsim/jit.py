@@ -48,6 +48,10 @@ PYTHON_BELOW = 10_000
 COMPILE_NOTICE = ("ncsim: compiling kernels, once, about 10-20 s (cached for later runs; "
                   "`ncsim warmup` compiles them ahead)")
 
+#: numba options of every kernel (module docstring); a change of them needs a new CACHE_TAG
+COMPILE_OPTIONS = {"error_model": "numpy"}
+CACHE_TAG = "npe"
+
 _forced: str | None = None
 _active = False                          # a compiled kernel has run in this process
 _notice: Callable[[str], None] | None = None
@@ -147,8 +151,10 @@ class Kernel:
         rebuilt.__doc__ = f.__doc__
         if which == "compiled":
             from numba import njit
-            options = {"error_model": "numpy", **self.options}   # module docstring
-            rebuilt = njit(cache=True, **options)(rebuilt)
+            # numba names its cache files after the qualname and keys them on the code and
+            # the signature, not on the options: the tag keeps caches of other options apart
+            rebuilt.__qualname__ = f"{f.__qualname__}_{CACHE_TAG}"
+            rebuilt = njit(cache=True, **{**COMPILE_OPTIONS, **self.options})(rebuilt)
             _dispatchers.add(id(rebuilt))
         self._versions[which] = rebuilt
         if fill:  # after storing ours, so that kernels calling each other resolve
