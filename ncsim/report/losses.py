@@ -119,11 +119,17 @@ def losses(motion) -> Losses:
                       np.full((2, N_CAUSES), -1, dtype=np.int64), np.zeros((2, N_CAUSES)))
 
     settle = settle_s(motion)
-    block_lost, block_cause, by_cause, blocks_by, worst, worst_lost = block_losses(
-        _f8(motion.piece_t_s), _f8(motion.piece_s_mm), _f8(motion.piece_v_mm_s),
-        _f8(motion.piece_a_mm_s2), _f8(motion.piece_j_mm_s3), motion.piece_phase,
-        motion.piece_limit, _f8(motion.t_end_s), ref, settle, path.rapid, N_CAUSES,
-        int(Limit.EXACT_STOP), int(Phase.STOP), int(Limit.NONE), TINY_S)
+    block_lost = np.zeros(n)
+    block_cause = np.full(n, int(Limit.NONE), dtype=np.int8)
+    by_cause = np.zeros((2, N_CAUSES))
+    blocks_by = np.zeros((2, N_CAUSES), dtype=np.int64)
+    worst = np.full((2, N_CAUSES), -1, dtype=np.int64)
+    worst_lost = np.zeros((2, N_CAUSES))
+    block_losses(_f8(motion.piece_t_s), _f8(motion.piece_s_mm), _f8(motion.piece_v_mm_s),
+                 _f8(motion.piece_a_mm_s2), _f8(motion.piece_j_mm_s3), motion.piece_phase,
+                 motion.piece_limit, _f8(motion.t_end_s), ref, settle, path.rapid,
+                 int(Limit.EXACT_STOP), int(Phase.STOP), TINY_S,
+                 block_lost, block_cause, by_cause, blocks_by, worst, worst_lost)
     np.maximum(block_lost, 0.0, out=block_lost)
     rapid = np.asarray(path.rapid, dtype=bool)
     settle_by_kind = np.array([settle[~rapid].sum(), settle[rapid].sum()])

@@ -55,10 +55,11 @@ def time_by_limit_s(motion) -> dict[str, dict[str, float]]:
     """Seconds during which each limit holds the feed, split into feed moves and rapids (a
     piece counts for the block of :func:`piece_blocks`: ``tally.piece_tally``)."""
     out = {"feed": {}, "rapid": {}}
-    sums, stops = piece_tally(np.ascontiguousarray(motion.piece_t_s, dtype=np.float64),
-                              motion.piece_phase, motion.piece_limit,
-                              np.ascontiguousarray(motion.t_start_s, dtype=np.float64),
-                              motion.path.rapid, len(LIMIT_LABELS), int(Phase.STOP))
+    sums = np.zeros((2, len(LIMIT_LABELS)))
+    stops = np.empty(int(np.count_nonzero(motion.piece_phase == Phase.STOP)))
+    piece_tally(np.ascontiguousarray(motion.piece_t_s, dtype=np.float64), motion.piece_phase,
+                motion.piece_limit, np.ascontiguousarray(motion.t_start_s, dtype=np.float64),
+                motion.path.rapid, int(Phase.STOP), sums, stops)
     out["standstill_s"] = float(stops.sum())
     if motion.path.n == 0:
         return out
