@@ -71,17 +71,22 @@ def release_freed_memory() -> None:
 
 
 def _malloc_trim():
-    global _TRIM
-    if _TRIM is False:
+    libc = _libc()
+    return getattr(libc, "malloc_trim", None) if libc is not None else None
+
+
+def _libc():
+    global _LIBC
+    if _LIBC is False:
         try:
             import ctypes
-            _TRIM = ctypes.CDLL(None).malloc_trim
-        except (OSError, AttributeError):
-            _TRIM = None
-    return _TRIM
+            _LIBC = ctypes.CDLL(None)
+        except (OSError, TypeError):      # no C library to load by name (Windows)
+            _LIBC = None
+    return _LIBC
 
 
-_TRIM = False
+_LIBC = False
 
 
 def resolve_machine(machine: MachineSpec | str | FsPath) -> MachineSpec:

@@ -731,9 +731,32 @@ def one_line_warning(message, category, filename, lineno, line=None) -> str:
     return f"ncsim: warning: {category.__name__}: {message} ({os.path.basename(filename)}:{lineno})\n"
 
 
+def _tune_allocator() -> None:
+    """For a process that runs large programs (the CLI): blocks of 4 MiB and more (a column of
+    half a million blocks) straight from the system and back to it when freed, smaller ones
+    from the C heap, which is trimmed only between stages (``pipeline.release_freed_memory``).
+    glibc's default moves that threshold up to the largest block freed so far and trims the
+    heap whenever its top is free, so a run's path-size columns piled up in the heap while
+    its chunk-size temporaries went back and forth to the system; 1M-block CAM program: peak
+    597 -> 561 MiB in the same time. A no-op without glibc's ``mallopt``."""
+    import ctypes
+
+    try:
+        mallopt = ctypes.CDLL(None).mallopt
+    except (OSError, TypeError, AttributeError):    # not glibc
+        return
+    mallopt(_M_MMAP_THRESHOLD, 4 << 20)
+    mallopt(_M_TRIM_THRESHOLD, 1 << 30)
+
+
+_M_TRIM_THRESHOLD = -1     # glibc malloc.h
+_M_MMAP_THRESHOLD = -3
+
+
 def main() -> None:
     import warnings
     warnings.formatwarning = one_line_warning
+    _tune_allocator()
     try:
         cli.main(prog_name="ncsim", standalone_mode=True)
     except KeyboardInterrupt:  # pragma: no cover - Ctrl-C while click parses the arguments
