@@ -169,6 +169,36 @@ def peak_feeds(va, vb, length, jerk, accel, cap):
 
 
 @njit(cache=True)
+def peak_feeds_reusing(va, vb, length, jerk, accel, cap, knots, prev_knots, prev_v, prev_len,
+                       prev_jerk, prev_accel, prev_cap, prev_peak):
+    """:func:`peak_feeds` of the sections between ``knots``, taking the peak of the previous
+    knot set's (``prev_*``) where a section is the same -- the same two knots and the same
+    six inputs to the last bit, so the same result -- and solving eq. 16 for the others: the
+    knot sets of successive refinements differ in a few places."""
+    n = va.shape[0]
+    m = prev_peak.shape[0]
+    out = np.empty(n)
+    j = 0
+    for i in range(n):
+        while j < m and prev_knots[j] < knots[i]:
+            j += 1
+        if (j < m and prev_knots[j] == knots[i] and prev_knots[j + 1] == knots[i + 1]
+                and _same_bits(prev_v[j], va[i]) and _same_bits(prev_v[j + 1], vb[i])
+                and _same_bits(prev_len[j], length[i]) and _same_bits(prev_jerk[j], jerk[i])
+                and _same_bits(prev_accel[j], accel[i]) and _same_bits(prev_cap[j], cap[i])):
+            out[i] = prev_peak[j]
+        else:
+            out[i] = peak_feed_scalar(va[i], vb[i], length[i], jerk[i], accel[i], cap[i])
+    return out
+
+
+@njit(cache=True)
+def _same_bits(x, y):
+    """x and y are the same double (zeros of one sign; NaN never is)."""
+    return x == y and math.copysign(1.0, x) == math.copysign(1.0, y)
+
+
+@njit(cache=True)
 def _ramp_segments(v0, v1, jerk, accel):
     """Durations t1, t2 and signed jerk of a ramp (see ncsim.plan.ramps.ramp_pieces)."""
     dv = abs(v1 - v0)
