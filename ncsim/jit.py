@@ -23,6 +23,12 @@ nested scalar call. ``tests/test_jit.py`` holds the two to the same results on r
 
 ``NCSIM_KERNELS`` = ``auto`` (the default), ``python`` or ``compiled`` forces the choice for a
 process; :func:`forced` does the same within a ``with`` block (tests, ``ncsim warmup``).
+
+numba compiles the kernels with ``error_model="numpy"``: a float division by zero gives inf or
+nan, as in numpy, where numba's default tests every divisor to raise Python's
+ZeroDivisionError -- a branch per division that costs 20-45 % on the per-arc closed forms of
+``plan.arc_extrema``. The kernels guard their divisors (their plain-Python twins, which the
+tests run on small inputs, would raise), so the results are the same.
 """
 from __future__ import annotations
 
@@ -41,6 +47,10 @@ PYTHON_BELOW = 10_000
 #: what :func:`on_compile`'s callback is told when numba starts compiling ncsim's kernels
 COMPILE_NOTICE = ("ncsim: compiling kernels, once, about 10-20 s (cached for later runs; "
                   "`ncsim warmup` compiles them ahead)")
+
+#: numba options of every kernel (module docstring); a change of them needs a new CACHE_TAG
+COMPILE_OPTIONS = {"error_model": "numpy"}
+CACHE_TAG = "npe"
 
 _forced: str | None = None
 _active = False                          # a compiled kernel has run in this process
@@ -141,7 +151,10 @@ class Kernel:
         rebuilt.__doc__ = f.__doc__
         if which == "compiled":
             from numba import njit
-            rebuilt = njit(cache=True, **self.options)(rebuilt)
+            # numba names its cache files after the qualname and keys them on the code and
+            # the signature, not on the options: the tag keeps caches of other options apart
+            rebuilt.__qualname__ = f"{f.__qualname__}_{CACHE_TAG}"
+            rebuilt = njit(cache=True, **{**COMPILE_OPTIONS, **self.options})(rebuilt)
             _dispatchers.add(id(rebuilt))
         self._versions[which] = rebuilt
         if fill:  # after storing ours, so that kernels calling each other resolve
@@ -175,7 +188,10 @@ class Kernel:
         global _active
         if not _listening:
             _listen()
-        out = self.compiled(*args)
+        if _active:
+            return self.compiled(*args)
+        with _without_blas():             # numba's first load: its registries
+            out = self.compiled(*args)
         _active = True
         return out
 
@@ -203,6 +219,30 @@ def njit(func=None, *, cache: bool = True, python_below: int = PYTHON_BELOW,
 def kernels() -> tuple[Kernel, ...]:
     """Every kernel defined so far (in the modules imported)."""
     return tuple(_registry)
+
+
+_BLAS_MODULE = "scipy.linalg.cython_blas"
+
+
+@contextmanager
+def _without_blas():
+    """numba's first compilation or cache load sets up its lowering registries, and one of
+    them imports scipy.linalg to see whether BLAS is there (for ``np.dot`` and kin inside
+    kernels): 0.2 s and 15 MB that every run would pay. ncsim's kernels use no BLAS, so that
+    import is made to fail meanwhile (numba then uses its own loops, and would import
+    scipy.linalg itself for a kernel that needs BLAS); an already imported scipy.linalg is
+    left alone."""
+    import sys
+
+    if _BLAS_MODULE in sys.modules:
+        yield
+        return
+    sys.modules[_BLAS_MODULE] = None     # "import scipy.linalg.cython_blas" raises ImportError
+    try:
+        yield
+    finally:
+        if sys.modules.get(_BLAS_MODULE, 0) is None:
+            del sys.modules[_BLAS_MODULE]
 
 
 def _listen() -> None:

@@ -247,22 +247,29 @@ class PathBuilder:
     ``add_line``/``add_arc`` take scalars; ``extend`` takes whole columns (used by the fast path
     for runs of plain blocks). Modal columns not given take the defaults of ``_COLUMNS``.
 
-    Cost is linear in the rows: rows are gathered as Python values and turned into column
-    chunks every ``ROW_CHUNK`` rows, chunks are kept in lists, and ``build`` joins each column
-    once (a column made of a single chunk is used as it is, without a copy).
+    Cost is linear in the rows, and the memory is the path's own: every column is one array
+    written in place (``capacity`` rows, e.g. the program's line count, grown by half when
+    full), rows given one by one are gathered as Python values and written every
+    ``ROW_CHUNK`` rows, and ``build`` hands the arrays over, cut to length (``realloc``: no
+    copy). Joining chunks at the end instead held the path twice, and the freed chunks stayed
+    with the process (``malloc`` returns little of a fragmented heap). After ``build`` the
+    builder writes to copies: the built path never changes.
     """
 
-    ROW_CHUNK = 1 << 14  # rows gathered one by one before they become a chunk
+    ROW_CHUNK = 1 << 14  # rows gathered one by one before they are written
+    MIN_CAPACITY = 1024
 
-    def __init__(self, files: Iterable[str] = ("<program>",)):
+    def __init__(self, files: Iterable[str] = ("<program>",), capacity: int = 0):
         self.files: list[str] = list(files)
-        self._chunks: dict[str, list[np.ndarray]] = {name: [] for name in _COLUMNS}
+        self._columns: dict[str, np.ndarray] | None = None
+        self._capacity = max(int(capacity), 0)
+        self._written = 0          # rows in the columns
+        self._shared = False       # the columns belong to a built Path
         self._rows: dict[str, list] = {name: [] for name in _COLUMNS}
-        self._n = 0
         self.end_dwell_s = 0.0
 
     def __len__(self) -> int:
-        return self._n
+        return self._written + len(self._rows["kind"])
 
     def file_index(self, file: str) -> int:
         try:
@@ -270,6 +277,24 @@ class PathBuilder:
         except ValueError:
             self.files.append(file)
             return len(self.files) - 1
+
+    def _reserve(self, k: int) -> None:
+        """Room for ``k`` more rows in columns of the builder's own (not a built path's)."""
+        need = self._written + k
+        if self._columns is not None and need <= self._capacity and not self._shared:
+            return
+        capacity = self._capacity
+        if need > capacity:
+            capacity = max(need, capacity + capacity // 2, self.MIN_CAPACITY)
+        old = self._columns
+        self._columns = {}
+        for name, (dtype, shape, _) in _COLUMNS.items():
+            col = np.empty((capacity, *shape), dtype=dtype)
+            if old is not None and self._written:
+                col[:self._written] = old[name][:self._written]
+            self._columns[name] = col
+        self._capacity = capacity
+        self._shared = False
 
     def _add_row(self, values: dict) -> None:
         for name, (_, shape, default) in _COLUMNS.items():
@@ -282,17 +307,19 @@ class PathBuilder:
             if shape and np.ndim(v) == 0:  # a scalar default of a vector column
                 v = np.full(shape, v, dtype=np.float64)
             self._rows[name].append(v)
-        self._n += 1
         if len(self._rows["kind"]) >= self.ROW_CHUNK:
             self._flush_rows()
 
     def _flush_rows(self) -> None:
-        if not self._rows["kind"]:
+        k = len(self._rows["kind"])
+        if not k:
             return
+        self._reserve(k)
+        a, b = self._written, self._written + k
         for name, (dtype, shape, _) in _COLUMNS.items():
-            rows = self._rows[name]
-            self._chunks[name].append(np.array(rows, dtype=dtype).reshape((-1, *shape)))
+            self._columns[name][a:b] = np.array(self._rows[name], dtype=dtype).reshape((-1, *shape))
             self._rows[name] = []
+        self._written = b
 
     def add_line(self, start_mm, end_mm, *, line: int, feed_mm_s: float, **modal) -> None:
         start = np.asarray(start_mm, dtype=np.float64)
@@ -311,59 +338,51 @@ class PathBuilder:
                            length_mm=float(arc_length_mm(radius_mm, sweep_rad, helix_mm)),
                            line=line, feed_mm_s=feed_mm_s, **modal))
 
-    def extend(self, *, copy: bool = True, **columns) -> None:
+    def extend(self, **columns) -> None:
         """Append a chunk of rows. ``kind``, ``start_mm``, ``end_mm``, ``length_mm`` and ``line``
-        are required arrays; other columns may be arrays or scalars (broadcast).
-
-        ``copy=False`` takes arrays that already have the column's dtype and shape as they are
-        (no copy, the path will hold them and make them read-only): for callers that have just
-        built the columns and drop them, so that a million rows are not copied twice."""
+        are required arrays; other columns may be arrays or scalars (broadcast). The values
+        are copied (cast to the column's dtype): the caller keeps its arrays."""
         self._flush_rows()
-        n = len(columns["kind"])
-        for name, (dtype, shape, default) in _COLUMNS.items():
-            if name in columns:
-                v = columns[name]
-            elif default is None:
+        k = len(columns["kind"])
+        for name, (_, _, default) in _COLUMNS.items():
+            if name not in columns and default is None:
                 raise TypeError(f"segment column {name!r} is required")
-            else:
-                v = default
-            arr = np.asarray(v, dtype=dtype)
-            if arr.shape != (n, *shape):
-                arr = np.array(np.broadcast_to(arr, (n, *shape)))
-            elif copy and arr is v:             # the caller's own array
-                arr = arr.copy()
-            self._chunks[name].append(arr)
-        self._n += n
+        self._reserve(k)
+        a, b = self._written, self._written + k
+        for name, (dtype, shape, default) in _COLUMNS.items():
+            v = columns.get(name, default)
+            self._columns[name][a:b] = np.broadcast_to(np.asarray(v, dtype=dtype), (k, *shape))
+        self._written = b
 
     def set_last(self, **values) -> None:
         """Change columns of the most recent segment (e.g. G9's exact stop set after the move)."""
-        if self._n == 0:
+        if len(self) == 0:
             raise IndexError("no segment yet")
         if self._rows["kind"]:
             for name, v in values.items():
                 self._rows[name][-1] = v
         else:
+            self._reserve(0)           # a built path keeps its values
             for name, v in values.items():
-                chunk = self._chunks[name][-1]
-                if not chunk.flags.writeable:  # held by a built Path: change a copy
-                    chunk = self._chunks[name][-1] = chunk.copy()
-                chunk[-1] = v
+                self._columns[name][self._written - 1] = v
 
     def build(self) -> Path:
-        """The Path of all rows so far. Each column is joined once and its parts are released
-        as soon as it is whole, so building needs the path's size plus one column."""
+        """The Path of all rows so far: the columns themselves, cut to length."""
         self._flush_rows()
+        n = self._written
+        if self._columns is None:
+            self._reserve(0)
         cols = {}
-        for name, (dtype, shape, _) in _COLUMNS.items():
-            chunks = self._chunks[name]
-            if not chunks:
-                col = np.zeros((0, *shape), dtype=dtype)
-            elif len(chunks) == 1:
-                col = chunks[0]
-            else:
-                col = np.concatenate(chunks)
-            self._chunks[name] = [col]
+        for name, col in self._columns.items():
+            if len(col) != n:
+                if self._shared:
+                    col = col[:n].copy()
+                else:          # shrink in place (realloc), the rows past n were never used
+                    col.resize((n, *col.shape[1:]), refcheck=False)
             cols[name] = col
+        self._columns = cols
+        self._capacity = n
+        self._shared = True
         return Path(**cols, files=tuple(self.files), end_dwell_s=self.end_dwell_s)
 
 

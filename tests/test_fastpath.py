@@ -248,9 +248,13 @@ def assert_same_outcome(a, b):
 
 
 @SETTINGS
-@given(programs(), st.sampled_from([1, 4, interpret.VECTOR_MIN_ROWS]))
-def test_fast_path_equals_lark_path(text, min_rows):
-    with mock.patch.object(interpret, "VECTOR_MIN_ROWS", min_rows):
+@given(programs(), st.sampled_from([1, 4, interpret.VECTOR_MIN_ROWS]),
+       st.sampled_from([2, 5, interpret.COLUMN_CHUNK]))
+def test_fast_path_equals_lark_path(text, min_rows, chunk):
+    """Also with plain runs cut into chunks of a few rows (each taken as columns or, when the
+    column path declines it, block by block)."""
+    with mock.patch.object(interpret, "VECTOR_MIN_ROWS", min_rows), \
+            mock.patch.object(interpret, "COLUMN_CHUNK", chunk):
         fast = _outcome(text, True)
     assert_same_outcome(fast, _outcome(text, False))
 

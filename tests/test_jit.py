@@ -3,13 +3,14 @@ either way, numba never imported by a small run, and its first compilation annou
 
 The property tests are the guarantee behind the size switch: on random programs (lines, arcs,
 dwells, exact stops, SOFT/BRISK changes, look-ahead depths from 1 to 100) the plain-Python
-kernels and numba's compiled ones give bit-identical paths, feed laws, traces, CSV bytes and
-``ncsim parse`` lines, and the scanner reads random near-plain lines identically.
+kernels and numba's compiled ones give bit-identical paths, feed laws, traces, CSV bytes,
+``ncsim parse`` lines and summaries, and the scanner reads random near-plain lines identically.
 """
 from __future__ import annotations
 
 import dataclasses
 import io
+import json
 import os
 import subprocess
 import sys
@@ -30,6 +31,7 @@ from ncsim.plan import _kernels as K
 from ncsim.plan.sample import sample_motion
 from ncsim.report.csvio import write_trace_csv
 from ncsim.report.pathtext import format_segments
+from ncsim.report.summary import summary
 from test_fastpath import near_plain_lines
 from test_plan_reference import random_program
 
@@ -51,6 +53,7 @@ def _run(which: str, text: str, machine, options):
         out = io.BytesIO()
         write_trace_csv(trace, out, columns="all")
         out.write(format_segments(sim.path))
+        out.write(json.dumps(summary(sim, top=20)).encode())
     return sim, trace, out.getvalue()
 
 

@@ -10,6 +10,7 @@ import pytest
 
 from ncsim.errors import NcSemanticError, NcUnsupportedError
 from ncsim.machine import load_machine, machine_from_dict
+from ncsim.nc import interpret
 from ncsim.nc.interpret import interpret_file, interpret_text
 
 
@@ -268,11 +269,15 @@ def test_mcall_calls_after_every_motion_block_but_not_inside_itself():
                                [2, 3, 0], [4, 3, 0]]
 
 
-def test_mcall_inside_a_plain_run_is_the_same_on_both_paths():
+@pytest.mark.parametrize("chunk", [3, 1 << 16])
+def test_mcall_inside_a_plain_run_is_the_same_on_both_paths(chunk, monkeypatch):
+    """Also when the run is interpreted in chunks of 3 rows (``interpret.COLUMN_CHUNK``)."""
+    monkeypatch.setattr(interpret, "COLUMN_CHUNK", chunk)
     holes = "".join(f"X{i} Y{2 * i}\n" for i in range(1, 12))
-    prog = "G0 Z5\nMCALL DR\n" + holes + "MCALL\nM30\nPROC DR\nG1 Z-1 F100\nG0 Z5\nRET\n"
+    prog = "G0 Z5\nMCALL DR\n" + holes + "MCALL\nX20\nY1\nX21\nY2\nX22\nY3\nX23\nY4\nM30\n" \
+        "PROC DR\nG1 Z-1 F100\nG0 Z5\nRET\n"
     fast, slow = run(prog), run(prog, fast=False)
-    assert ends(fast) == ends(slow) and len(fast.path) == 1 + 3 * 11
+    assert ends(fast) == ends(slow) and len(fast.path) == 1 + 3 * 11 + 8
 
 
 def test_mcall_of_a_cycle_without_source_is_a_warning():

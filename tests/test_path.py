@@ -38,23 +38,35 @@ def test_path_columns_are_read_only():
         p.length_mm[0] = 2.0
 
 
-def test_extend_copies_unless_told_and_build_shares_a_single_chunk():
+def test_extend_copies_and_a_built_path_never_changes():
     start = np.zeros((2, 3))
     end = np.array([[1.0, 0, 0], [2.0, 0, 0]])
     cols = dict(kind=np.zeros(2, np.int8), start_mm=start, end_mm=end,
                 length_mm=np.array([1.0, 2.0]), line=np.array([1, 2], np.int32), feed_mm_s=10.0)
-    b = PathBuilder()
+    b = PathBuilder(capacity=100)
     b.extend(**cols)
     end[0, 0] = 9.0                       # the builder copied: the path keeps 1.0
     p = b.build()
-    assert p.end_mm[0, 0] == 1.0
-    b = PathBuilder()
-    b.extend(copy=False, **cols)
-    p = b.build()
-    assert p.end_mm is end and p.line is cols["line"]   # taken over, not copied
-    assert not end.flags.writeable
+    assert p.end_mm[0, 0] == 1.0 and p.n == 2 and p.end_mm.shape == (2, 3)
+    assert end.flags.writeable            # the caller's arrays stay the caller's
     b.set_last(exact_stop=True)           # after build: changes a copy, not the built path
     assert not p.exact_stop[-1] and b.build().exact_stop[-1]
+    b.extend(**cols)                      # so does building on
+    q = b.build()
+    assert p.n == 2 and q.n == 4 and q.end_mm[3, 0] == 2.0 and q.exact_stop[1]
+
+
+def test_columns_grow_past_the_capacity_and_keep_the_rows():
+    b = PathBuilder(capacity=3)
+    for i in range(2000):
+        b.add_line([i, 0, 0], [i + 1, 0, 0], line=i + 1, feed_mm_s=1.0)
+        if i % 500 == 0:
+            b.extend(kind=np.zeros(700, np.int8), start_mm=np.zeros((700, 3)),
+                     end_mm=np.ones((700, 3)), length_mm=np.full(700, 1.5), line=-1)
+    p = b.build()
+    assert p.n == 2000 + 4 * 700
+    assert list(p.line[p.line > 0]) == list(range(1, 2001))
+    assert (p.length_mm[p.line < 0] == 1.5).all() and (p.length_mm[p.line > 0] == 1.0).all()
 
 
 def test_rows_and_chunks_keep_their_order_across_row_chunks(monkeypatch):

@@ -152,7 +152,8 @@ class ColumnPath:
         if k == 0:
             return
         if k < len(keep):  # zero-length lines make no segment
-            cols = {name: np.take(col, idx, axis=0) for name, col in cols.items()}
+            for name in cols:      # one column at a time: the full-size one is freed as it goes
+                cols[name] = cols[name][idx]
             lines, rapid, feed = lines[idx], rapid[idx], feed[idx]
         stop = np.zeros(k, dtype=bool)
         stop[1:] = rapid[1:] != rapid[:-1]

@@ -165,8 +165,8 @@ class PathOutput:
     Rows are buffered and turned into columns before every column chunk, so the segments stay
     in execution order."""
 
-    def __init__(self, file: str) -> None:
-        self.builder = PathBuilder((file,))
+    def __init__(self, file: str, capacity: int = 0) -> None:
+        self.builder = PathBuilder((file,), capacity)
         self.rows: list[dict] = []
         self.n_segments = 0
 

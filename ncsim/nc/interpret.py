@@ -113,6 +113,7 @@ __all__ = ["InterpretOptions", "InterpretResult", "Interpreter", "RecordedCall",
            "interpret_file", "interpret_text"]
 
 VECTOR_MIN_ROWS = 8          # shorter plain runs are cheaper block by block
+COLUMN_CHUNK = 1 << 16       # rows of a plain run interpreted as columns at once
 
 
 @dataclass(frozen=True, slots=True)
@@ -165,7 +166,10 @@ def interpret_text(text: str, file: str = "<string>", machine: MachineSpec | Non
                                block_budget=block_budget, fast=fast, skip_blocks=skip_blocks)
     interp = Interpreter(machine, options, setup_offsets, search_dir)
     program = parse_text(text, file, fast=fast)
-    return interp.run(program)
+    try:
+        return interp.run(program)
+    finally:
+        interp.close()
 
 
 def interpret_file(path: str | FsPath, machine: MachineSpec | None = None, **options
@@ -190,6 +194,7 @@ class Interpreter:
         self.moves = Moves(state)
         self.columns = ColumnPath(state)
         self.ran_off_end = False     # the main program ran past its last line
+        self.main_unit = None
         self.ops = OpCompiler(self)
         self.vector_min_rows = VECTOR_MIN_ROWS
 
@@ -197,7 +202,7 @@ class Interpreter:
         """Interpret ``program``. An error raised on the way carries the warnings collected
         until then (``error.warnings``), so that a caller can show what led to it."""
         state = self.state
-        state.out = PathOutput(program.file)
+        state.out = PathOutput(program.file, capacity=program.n_lines)   # one segment a line
         self.calls.main_file = program.file
         state.add_lines(program.n_lines)
         try:
@@ -212,6 +217,7 @@ class Interpreter:
             exc.warnings = state.warnings.result()
             raise
         state.out.flush()
+        state.stack.clear()
         builder = state.out.builder
         builder.end_dwell_s = state.st.pending_dwell_s
         path = builder.build()
@@ -220,6 +226,20 @@ class Interpreter:
         self._warn_empty(program, path.n, complete, [u.name for u in units[1:]] * procs_only)
         return InterpretResult(path, state.warnings.result(), state.blocks, tuple(state.recorded),
                                complete, state.warnings.approximations())
+
+    def close(self) -> None:
+        """Let go of the parsed program. The compiled ops refer back to the interpreter, a
+        reference cycle that only a later run of the cyclic garbage collector would free, with
+        the program's columns in it (about 100 bytes per block): a caller done with the
+        interpreter breaks it here."""
+        state = self.state
+        for unit in (self.main_unit, *state.units.values()):
+            if unit is not None:
+                unit.ops.clear()
+                unit.items = []
+        state.units.clear()
+        state.stack.clear()
+        self.main_unit = None
 
     def _warn_empty(self, program: P.Program, n_segments: int, complete: bool,
                     procs: list[str]) -> None:
@@ -307,22 +327,36 @@ class Interpreter:
             self.exec_block(fr, item)
 
     def exec_run(self, fr, run: P.PlainRun) -> None:
-        """A run of plain blocks: as columns when it can, else block by block."""
-        if len(run) >= VECTOR_MIN_ROWS and self.columns.run(fr, run):
+        """A run of plain blocks: as columns when it can, in chunks of ``COLUMN_CHUNK`` rows
+        (their temporaries stay small however long the run), else block by block."""
+        n = len(run)
+        if n < VECTOR_MIN_ROWS:
+            self._run_blocks(fr, run, 0, n)
             return
+        for start in range(0, n, COLUMN_CHUNK):
+            stop = min(start + COLUMN_CHUNK, n)
+            chunk = run if stop - start == n else run.rows(start, stop)
+            if (stop - start < VECTOR_MIN_ROWS or not self.columns.run(fr, chunk)) and \
+                    not self._run_blocks(fr, run, start, stop):
+                return
+
+    def _run_blocks(self, fr, run: P.PlainRun, start: int, stop: int) -> bool:
+        """Rows ``start:stop`` of ``run`` by the block path. False when a modal call (MCALL)
+        was pushed: it runs first, then the rest of the run (``fr.row``)."""
         count = self.state.count
         file = fr.unit.file
         stack = self.state.stack
-        for i in range(len(run)):
+        n = len(run)
+        for i in range(start, stop):
             block = run.block(i)
             count(file, block.line)
             self.exec_block(fr, block)
-            if stack[-1] is not fr and i + 1 < len(run):
-                # a modal call (MCALL) was pushed: it runs first, then the rest of this run
+            if stack[-1] is not fr and i + 1 < n:
                 item = fr.unit.items[fr.pc - 1]
                 fr.pc -= 1
-                fr.row = len(item) - len(run) + i + 1
-                return
+                fr.row = len(item) - n + i + 1
+                return False
+        return True
 
     def exec_block(self, fr, block: P.Block) -> None:
         """One block of words, in the order of steps 1 to 4 (module docstring)."""

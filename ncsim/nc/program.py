@@ -337,8 +337,12 @@ class PlainRun:
 
     def slice(self, start: int) -> "PlainRun":
         """The rows from ``start`` on (a jump into the middle of a run)."""
-        return PlainRun(self.first_line + start, self.numbers[start:], self.g[start:],
-                        self.values[start:], self.cols[start:])
+        return self.rows(start, len(self))
+
+    def rows(self, start: int, stop: int) -> "PlainRun":
+        """The rows ``start:stop`` (views, no copy)."""
+        return PlainRun(self.first_line + start, self.numbers[start:stop], self.g[start:stop],
+                        self.values[start:stop], self.cols[start:stop])
 
 
 @dataclass(frozen=True, slots=True, eq=False)

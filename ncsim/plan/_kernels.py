@@ -169,6 +169,36 @@ def peak_feeds(va, vb, length, jerk, accel, cap):
 
 
 @njit(cache=True)
+def peak_feeds_reusing(va, vb, length, jerk, accel, cap, knots, prev_knots, prev_v, prev_len,
+                       prev_jerk, prev_accel, prev_cap, prev_peak):
+    """:func:`peak_feeds` of the sections between ``knots``, taking the peak of the previous
+    knot set's (``prev_*``) where a section is the same -- the same two knots and the same
+    six inputs to the last bit, so the same result -- and solving eq. 16 for the others: the
+    knot sets of successive refinements differ in a few places."""
+    n = va.shape[0]
+    m = prev_peak.shape[0]
+    out = np.empty(n)
+    j = 0
+    for i in range(n):
+        while j < m and prev_knots[j] < knots[i]:
+            j += 1
+        if (j < m and prev_knots[j] == knots[i] and prev_knots[j + 1] == knots[i + 1]
+                and _same_bits(prev_v[j], va[i]) and _same_bits(prev_v[j + 1], vb[i])
+                and _same_bits(prev_len[j], length[i]) and _same_bits(prev_jerk[j], jerk[i])
+                and _same_bits(prev_accel[j], accel[i]) and _same_bits(prev_cap[j], cap[i])):
+            out[i] = prev_peak[j]
+        else:
+            out[i] = peak_feed_scalar(va[i], vb[i], length[i], jerk[i], accel[i], cap[i])
+    return out
+
+
+@njit(cache=True)
+def _same_bits(x, y):
+    """x and y are the same double (zeros of one sign; NaN never is)."""
+    return x == y and math.copysign(1.0, x) == math.copysign(1.0, y)
+
+
+@njit(cache=True)
 def _ramp_segments(v0, v1, jerk, accel):
     """Durations t1, t2 and signed jerk of a ramp (see ncsim.plan.ramps.ramp_pieces)."""
     dv = abs(v1 - v0)
@@ -570,16 +600,17 @@ def knots_and_reasons(p, cap, cap_limit, jcap, jlimit, rel, none_code, end_code)
 
 
 @njit(cache=True)
-def section_minima(knots, p, cap, jerk, accel):
-    """Per section (blocks knots[i]..knots[i+1]-1): least jerk, acceleration and set point
-    of its blocks, least crossing cap of its inner junctions, and where the section's set
-    point comes from: the first block holding the least set point, or -(b + 2) for the end
-    junction of block b when an inner junction's cap is lower."""
+def section_minima(knots, p, cap, jerk, accel, s_junction):
+    """Per section (blocks knots[i]..knots[i+1]-1): its length, least jerk and acceleration
+    of its blocks, its set point -- the least set point of its blocks and crossing cap of its
+    inner junctions -- and where that comes from: the first block holding the least set
+    point, or -(b + 2) for the end junction of block b when an inner junction's cap is
+    lower."""
     ns = knots.shape[0] - 1
+    sec_len = np.empty(ns)
     sec_jerk = np.empty(ns)
     sec_accel = np.empty(ns)
-    block_min = np.empty(ns)
-    junction_min = np.empty(ns)
+    sec_cap = np.empty(ns)
     cap_from = np.empty(ns, dtype=np.int64)
     for i in range(ns):
         a, b = knots[i], knots[i + 1]
@@ -592,9 +623,11 @@ def section_minima(knots, p, cap, jerk, accel):
                 bm, fb = cap[blk], blk
             if blk + 1 < b and p[blk + 1] < jn:
                 jn, fj = p[blk + 1], blk
-        sec_jerk[i], sec_accel[i], block_min[i], junction_min[i] = jm, am, bm, jn
+        sec_len[i] = s_junction[b] - s_junction[a]
+        sec_jerk[i], sec_accel[i] = jm, am
+        sec_cap[i] = math.nan if bm != bm or jn != jn else min(bm, jn)   # np.minimum
         cap_from[i] = -(fj + 2) if jn < bm else fb
-    return sec_jerk, sec_accel, block_min, junction_min, cap_from
+    return sec_len, sec_jerk, sec_accel, sec_cap, cap_from
 
 
 @njit(cache=True)

@@ -102,7 +102,8 @@ other value is treated as 601); junction n also gets ``path.end_dwell_s``.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -135,7 +136,8 @@ class PathLimits:
     jerk_mm_s3: np.ndarray      # tangential jerk in force for phases A/C
     accel_mm_s2: np.ndarray     # tangential acceleration in force (> 0)
     alpha_c_rad: np.ndarray     # tangent direction angle at alpha_c in the arc's plane; NaN: line
-    candidates: dict[str, np.ndarray]  # Limit label -> that limit per block (+inf: n/a)
+    candidates: Mapping[str, np.ndarray]  # Limit label -> that limit per block (+inf: n/a);
+                                          # from path_limits: computed when first read
     # -- per junction (n + 1) -------------------------------------------------------------------
     junction_cap_mm_s: np.ndarray  # crossing cap: +inf unconstrained, 0 stop
     junction_limit: np.ndarray     # int8 Limit of the junction cap
@@ -149,8 +151,9 @@ class PathLimits:
         for name in ("cap_mm_s", "cap_limit", "jerk_mm_s3", "accel_mm_s2", "alpha_c_rad",
                      "junction_cap_mm_s", "junction_limit", "junction_dwell_s"):
             getattr(self, name).setflags(write=False)
-        for arr in self.candidates.values():
-            arr.setflags(write=False)
+        if isinstance(self.candidates, dict):
+            for arr in self.candidates.values():
+                arr.setflags(write=False)
 
     @property
     def n_blocks(self) -> int:
@@ -162,22 +165,62 @@ def path_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_M
     (semantics in the module docstring), on the path as the 840D runs it: compressed runs and
     G641-G645 rounding blocks (:mod:`ncsim.plan.hsm`). ``PathLimits.path`` is that path (the
     programmed one when no HSM mode changes it), the one the planner plans."""
+    limits = _path_limits(path, machine, options, candidates=False)
+    return replace(limits, candidates=LazyCandidates(
+        lambda: _path_limits(path, machine, options, candidates=True).candidates))
+
+
+def _path_limits(path: Path, machine: MachineSpec, options: ModelOptions, *,
+                 candidates: bool) -> PathLimits:
+    """:func:`path_limits`; the candidates are made only if asked for or needed (the
+    compressor's and the rounding's closed forms start from them)."""
     from ncsim.plan.hsm import prepare
 
     prepared = prepare(path, machine, options)
-    return prepared.apply(block_limits(prepared.path, machine, options), machine, options)
+    limits = block_limits(prepared.path, machine, options,
+                          candidates=candidates or prepared.changed)
+    return prepared.apply(limits, machine, options)
 
 
-def block_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_MODEL) -> PathLimits:
+class LazyCandidates(Mapping):
+    """The eq. 12 candidates of :func:`path_limits`, computed again when first read (the same
+    computation, so the same values): the planner needs only their minimum, and six arrays
+    the size of the path would stay in memory for nothing (46 MiB at a million blocks)."""
+
+    def __init__(self, compute) -> None:
+        self._compute = compute
+        self._values: dict[str, np.ndarray] | None = None
+
+    def _get(self) -> dict[str, np.ndarray]:
+        if self._values is None:
+            values = self._compute()
+            for arr in values.values():
+                arr.setflags(write=False)
+            self._values, self._compute = dict(values), None
+        return self._values
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        return self._get()[key]
+
+    def __iter__(self):
+        return iter(self._get())
+
+    def __len__(self) -> int:
+        return len(self._get())
+
+
+def block_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_MODEL, *,
+                 candidates: bool = True) -> PathLimits:
     """The limits of every block and junction of ``path`` as programmed (module docstring),
     without the compressor and rounding of :func:`path_limits`. Blocks and junctions are
     processed in chunks of ``CHUNK_BLOCKS``, so that the temporaries stay small next to the
-    results."""
+    results. ``candidates=False`` keeps no eq. 12 candidates (an empty dict)."""
     n = path.n
     ncu = machine.ncu
     j_ncu = ncu.tangential_jerk_mm_s3 if options.ncu_path_jerk else np.inf
 
-    cand = {label: np.full(n, np.inf) for label in CANDIDATE_LABELS}
+    kept = {label: np.empty(n) for label in CANDIDATE_LABELS} if candidates else {}
+    chunk = {label: np.empty(min(n, CHUNK_BLOCKS)) for label in CANDIDATE_LABELS}
     cap = np.empty(n)
     limit = np.empty(n, dtype=np.int8)
     accel = np.empty(n)
@@ -188,15 +231,18 @@ def block_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_
     jdwell = np.zeros(n + 1)
     for lo in range(0, n, CHUNK_BLOCKS):
         hi = min(lo + CHUNK_BLOCKS, n)
+        cand = {label: v[:hi - lo] for label, v in chunk.items()}
         _block_limits(path, lo, hi, machine, options, j_ncu, cand, cap, limit, accel, jerk,
                       alpha_c)
+        for label, v in kept.items():
+            v[lo:hi] = cand[label]
         _junction_limits(path, lo, hi, machine, options, jcap, jlimit)
         _junction_dwell(path, lo, hi, ncu, jdwell)
     jcap[0] = jcap[n] = 0.0
     jlimit[0] = jlimit[n] = int(Limit.PROGRAM_END)
     jdwell[n] += path.end_dwell_s
     return PathLimits(cap_mm_s=cap, cap_limit=limit, jerk_mm_s3=jerk, accel_mm_s2=accel,
-                      alpha_c_rad=alpha_c, candidates=cand, junction_cap_mm_s=jcap,
+                      alpha_c_rad=alpha_c, candidates=kept, junction_cap_mm_s=jcap,
                       junction_limit=jlimit, junction_dwell_s=jdwell)
 
 
@@ -206,25 +252,30 @@ def block_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_
 
 def _block_limits(path, lo, hi, machine, options, j_ncu, cand, cap, limit, accel, jerk,
                   alpha_c) -> None:
-    """Set points and ramp limits of blocks lo..hi-1, written into the result arrays."""
+    """Set points and ramp limits of blocks lo..hi-1, written into the result arrays; their
+    eq. 12 candidates into ``cand`` (arrays of the chunk's hi - lo blocks)."""
     ncu = machine.ncu
     blocks = slice(lo, hi)
-    cand["programmed"][blocks] = np.where(path.rapid[blocks], np.inf, path.feed_mm_s[blocks])
+    for v in cand.values():
+        v.fill(np.inf)
+    cand["programmed"][:] = np.where(path.rapid[blocks], np.inf, path.feed_mm_s[blocks])
     if options.cycle_time_limit:
-        cand["cycle_time"][blocks] = kin.cycle_time_feed_limit_mm_s(path.length_mm[blocks],
-                                                                    ncu.ipo_cycle_s)
+        cand["cycle_time"][:] = kin.cycle_time_feed_limit_mm_s(path.length_mm[blocks],
+                                                               ncu.ipo_cycle_s)
     jerk_axis = np.empty(hi - lo)
     vmax = np.empty(hi - lo)     # axis-velocity limit along the block (DRIVE)
     is_arc = path.kind[blocks] == ARC
-    lines = lo + np.flatnonzero(~is_arc)
-    if len(lines):
-        v_axis, accel[lines], jerk_axis[lines - lo] = _line_limits(path, lines, machine)
-        cand["axis_velocity"][lines] = vmax[lines - lo] = v_axis
-        cap[lines], limit[lines] = _set_point(cand, lines)
-    arcs = lo + np.flatnonzero(is_arc)
-    if len(arcs):
-        (cap[arcs], limit[arcs], accel[arcs], jerk_axis[arcs - lo], vmax[arcs - lo],
-         alpha_c[arcs]) = _arc_limits(path, arcs, machine, options, j_ncu, cand)
+    local = np.flatnonzero(~is_arc)
+    if len(local):
+        lines = lo + local
+        v_axis, accel[lines], jerk_axis[local] = _line_limits(path, lines, machine)
+        cand["axis_velocity"][local] = vmax[local] = v_axis
+        cap[lines], limit[lines] = _set_point(cand, local)
+    local = np.flatnonzero(is_arc)
+    if len(local):
+        arcs = lo + local
+        (cap[arcs], limit[arcs], accel[arcs], jerk_axis[local], vmax[local],
+         alpha_c[arcs]) = _arc_limits(path, arcs, local, machine, options, j_ncu, cand)
 
     mode = (np.full(hi - lo, options.accel_mode, dtype=np.int8) if options.accel_mode is not None
             else path.accel_mode[blocks])
@@ -261,11 +312,11 @@ def _line_limits(path, idx, machine):
     return v_axis, accel, jerk
 
 
-def _arc_limits(path, arcs, machine, options, j_ncu, cand):
+def _arc_limits(path, arcs, local, machine, options, j_ncu, cand):
     """Set points of the arcs ``arcs`` (module docstring), from the closed-form extrema of
     eq. 7-9 over each arc's angle range (:mod:`ncsim.plan.arc_extrema`); writes their eq. 12
-    candidates into ``cand`` and returns ``(cap, limit, tangential accel, least J_t, least
-    V_t, alpha_c)``."""
+    candidates into ``cand`` at ``local`` and returns ``(cap, limit, tangential accel, least
+    J_t, least V_t, alpha_c)``."""
     ncu = machine.ncu
     columns = (arcs, path.start_mm, path.center_mm, path.normal, path.radius_mm, path.sweep_rad,
                path.helix_mm)
@@ -274,13 +325,13 @@ def _arc_limits(path, arcs, machine, options, j_ncu, cand):
                                machine.max_jerk_mm_s3, float(j_ncu))
     v_an_guard = kin.normal_accel_feed_limit_mm_s(radius, ncu.normal_accel_share * a_n_min)
     if np.isfinite(j_ncu):
-        cand["ncu_path_jerk"][arcs] = kin.ncu_path_jerk_feed_limit_mm_s(j_ncu, radius)  # eq. 11
+        cand["ncu_path_jerk"][local] = kin.ncu_path_jerk_feed_limit_mm_s(j_ncu, radius)  # eq. 11
     if options.axis_jerk_setpoint:
-        cand["axis_jerk"][arcs] = kin.tangential_jerk_feed_limit_mm_s(j_t_c, radius)    # eq. 4
-    cand["axis_accel"][arcs] = np.minimum(
+        cand["axis_jerk"][local] = kin.tangential_jerk_feed_limit_mm_s(j_t_c, radius)    # eq. 4
+    cand["axis_accel"][local] = np.minimum(
         kin.normal_accel_feed_limit_mm_s(radius, a_n_c), v_an_guard)                    # eq. 2
-    cand["axis_velocity"][arcs] = np.minimum(v_t_c, v_t_min)                           # eq. 7
-    cap, limit = _set_point(cand, arcs)                                                 # eq. 12
+    cand["axis_velocity"][local] = np.minimum(v_t_c, v_t_min)                           # eq. 7
+    cap, limit = _set_point(cand, local)                                                 # eq. 12
     a_normal = cap ** 2 / radius                                                        # eq. 1
     accel = arc_tangential_accel(*columns, machine.max_accel_mm_s2, a_normal)
     return cap, limit, accel, j_t_min, v_t_min, alpha_c

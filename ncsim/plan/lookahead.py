@@ -61,6 +61,7 @@ import numpy as np
 from ncsim.plan._kernels import (block_section_values, creep_caps, inner_junction_states,
                                  junction_states,
                                  knot_feeds_array, knots_and_reasons, lookahead_caps, peak_feeds,
+                                 peak_feeds_reusing,
                                  reach_array,
                                  removable_knots, section_minima, section_pieces,
                                  unstoppable_junctions)
@@ -260,23 +261,31 @@ def _find_knots(p, cap, cap_limit, jcap, jlimit):
                              int(Limit.PROGRAM_END))
 
 
-def _solve_knots(knots, p, cap, jerk, accel, s_junction):
+def _solve_knots(knots, p, cap, jerk, accel, s_junction, prev=None):
     """Section limits, knot feeds (both passes) and section peaks (eq. 16) for a knot set.
 
     A section's set point is the lowest set point of its blocks and crossing cap of its
     inner junctions, so its law can exceed neither. ``sec_cap_from`` says where it comes
     from: the first block holding the lowest set point (>= 0), or -(b + 2) for the end
     junction of block b when an inner junction holds a lower cap (``_kernels.section_minima``).
+    ``prev``, the solution of a knot set before, lends the peaks of the sections that did not
+    change (``_kernels.peak_feeds_reusing``).
     """
-    sec_len = s_junction[knots[1:]] - s_junction[knots[:-1]]
-    sec_jerk, sec_accel, block_min, junction_min, cap_from = section_minima(
-        knots, p, cap, jerk, accel)
-    sec_cap = np.minimum(block_min, junction_min)
-    w = p[knots].copy()                     # a knot is also in its sections' set points
+    sec_len, sec_jerk, sec_accel, sec_cap, cap_from = section_minima(
+        knots, p, cap, jerk, accel, s_junction)
+    w = p[knots]                            # a knot is also in its sections' set points
     w[:-1] = np.minimum(w[:-1], sec_cap)
     w[1:] = np.minimum(w[1:], sec_cap)
     v_knot = knot_feeds_array(w, sec_len, sec_jerk, sec_accel)
-    v_peak = peak_feeds(v_knot[:-1], v_knot[1:], sec_len, sec_jerk, sec_accel, sec_cap)
+    if prev is None:
+        v_peak = peak_feeds(v_knot[:-1], v_knot[1:], sec_len, sec_jerk, sec_accel, sec_cap)
+    else:
+        v_peak = peak_feeds_reusing(
+            v_knot[:-1], v_knot[1:], sec_len, sec_jerk, sec_accel, sec_cap,
+            np.ascontiguousarray(knots, dtype=np.int64),
+            np.ascontiguousarray(prev["knots"], dtype=np.int64), prev["v_knot"],
+            prev["sec_len"], prev["sec_jerk"], prev["sec_accel"], prev["sec_cap"],
+            prev["v_peak"])
     return dict(knots=knots, sec_len=sec_len, sec_jerk=sec_jerk, sec_accel=sec_accel,
                 sec_cap=sec_cap, v_knot=v_knot, v_peak=v_peak, sec_cap_from=cap_from)
 
@@ -308,7 +317,7 @@ def _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end,
         remove = removable_knots(sol["v_peak"], sol["sec_cap"], p[k], keep[k])
         if not np.any(remove):
             break
-        sol = _solve_knots(k[~remove], p, cap, jerk, accel, s_junction)
+        sol = _solve_knots(k[~remove], p, cap, jerk, accel, s_junction, prev=sol)
     if lookahead_end is not None:
         sol, p = _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end)
     return sol, p
@@ -345,7 +354,7 @@ def _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end, 
                    sec_room[sections], sol["sec_jerk"][sections], sol["sec_accel"][sections],
                    sol["sec_cap"][sections], CREEP_TOL)
         new_knots = np.union1d(knots, np.nonzero(keep)[0])
-        sol = _solve_knots(new_knots, p, cap, jerk, accel, s_junction)
+        sol = _solve_knots(new_knots, p, cap, jerk, accel, s_junction, prev=sol)
     return sol, p
 
 

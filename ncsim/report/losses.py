@@ -35,6 +35,7 @@ import numpy as np
 
 from ncsim.motion import LIMIT_LABELS, Limit, Phase
 from ncsim.plan.kinematics import axis_velocity_feed_limit_mm_s
+from ncsim.report.tally import block_losses
 
 N_CAUSES = len(LIMIT_LABELS)
 KINDS = ("feed", "rapid")
@@ -84,35 +85,8 @@ def reference_feed_mm_s(motion) -> np.ndarray:
     return ref
 
 
-def _intervals(motion):
-    """Merge the piece boundaries and the block ends: for every stretch [t_i, t_{i+1}) its
-    piece and its block. Returns (t0, t1, piece, block) of the moving stretches."""
-    pt = np.asarray(motion.piece_t_s, dtype=np.float64)
-    te = np.asarray(motion.t_end_s, dtype=np.float64)
-    m, n = len(pt) - 1, len(te)
-    # merged sorted times without a full sort (each sequence is sorted already); at equal
-    # times a piece boundary comes first, so a stretch starting there has the piece starting
-    # there and the block that ends later
-    pos_p = np.arange(len(pt)) + np.searchsorted(te, pt, side="left")
-    pos_e = np.arange(n) + np.searchsorted(pt, te, side="right")
-    t = np.empty(len(pt) + n)
-    t[pos_p] = pt
-    t[pos_e] = te
-    is_piece = np.zeros(len(t), dtype=np.int64)
-    is_piece[pos_p] = 1
-    is_end = np.zeros(len(t), dtype=np.int64)
-    is_end[pos_e] = 1
-    piece = np.clip(np.cumsum(is_piece)[:-1] - 1, 0, m - 1)   # last piece starting at or before
-    block = np.clip(np.cumsum(is_end)[:-1], 0, n - 1)         # blocks ended at or before
-    t0, t1 = t[:-1], t[1:]
-    keep = (t1 > t0) & (motion.piece_phase[piece] != Phase.STOP)
-    return t0[keep], t1[keep], piece[keep], block[keep]
-
-
-def _s_at(motion, piece, t):
-    tau = t - motion.piece_t_s[piece]
-    return motion.piece_s_mm[piece] + tau * (motion.piece_v_mm_s[piece] + tau * (
-        0.5 * motion.piece_a_mm_s2[piece] + tau * motion.piece_j_mm_s3[piece] / 6.0))
+def _f8(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 def settle_s(motion) -> np.ndarray:
@@ -121,10 +95,12 @@ def settle_s(motion) -> np.ndarray:
     path = motion.path
     n = path.n
     dwell = np.asarray(motion.junction_dwell_s, dtype=np.float64)
-    g4 = np.zeros(n + 1)
-    g4[:n] += path.dwell_before_s
-    g4[n] += path.end_dwell_s
-    settle = np.where(path.exact_stop, np.maximum(dwell[1:] - g4[1:], 0.0), 0.0)
+    settle = np.empty(n)
+    if n:
+        np.subtract(dwell[1:n], path.dwell_before_s[1:], out=settle[:n - 1])
+        settle[n - 1] = dwell[n] - path.end_dwell_s
+        np.maximum(settle, 0.0, out=settle)
+        np.copyto(settle, 0.0, where=~np.asarray(path.exact_stop, dtype=bool))
     return settle
 
 
@@ -133,65 +109,31 @@ def losses(motion) -> Losses:
     path = motion.path
     n = path.n
     ref = reference_feed_mm_s(motion) if n else np.zeros(0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ideal = np.where(ref > 0, path.length_mm / ref, 0.0) if n else np.zeros(0)
+    ideal = np.zeros(n)
+    np.divide(path.length_mm, ref, out=ideal, where=ref > 0)
     g4_total = float(np.sum(path.dwell_before_s) + path.end_dwell_s) if n else float(path.end_dwell_s)
+    if n == 0:
+        e = np.zeros(0)
+        return Losses(e, e, e, e, np.zeros(0, np.int8), g4_total, np.zeros((2, N_CAUSES)),
+                      np.zeros(2), np.zeros((2, N_CAUSES), dtype=np.int64),
+                      np.full((2, N_CAUSES), -1, dtype=np.int64), np.zeros((2, N_CAUSES)))
+
+    settle = settle_s(motion)
+    block_lost = np.zeros(n)
+    block_cause = np.full(n, int(Limit.NONE), dtype=np.int8)
     by_cause = np.zeros((2, N_CAUSES))
     blocks_by = np.zeros((2, N_CAUSES), dtype=np.int64)
     worst = np.full((2, N_CAUSES), -1, dtype=np.int64)
     worst_lost = np.zeros((2, N_CAUSES))
-    if n == 0:
-        e = np.zeros(0)
-        return Losses(e, e, e, e, np.zeros(0, np.int8), g4_total, by_cause, np.zeros(2),
-                      blocks_by, worst, worst_lost)
-
-    t0, t1, piece, block = _intervals(motion)
-    ds = _s_at(motion, piece, t1) - _s_at(motion, piece, t0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ideal_part = np.where(ref[block] > 0, ds / ref[block], 0.0)
-    lost = (t1 - t0) - ideal_part
-    cause = motion.piece_limit[piece].astype(np.int64)
-    settle = settle_s(motion)
-
-    # (block, cause) sums: the stretches are in time order, so blocks are non-decreasing;
-    # a stable sort on the combined key groups each block's causes
-    settled = np.flatnonzero(settle > 0)
-    key = np.concatenate([block * N_CAUSES + cause, settled * N_CAUSES + int(Limit.EXACT_STOP)])
-    value = np.concatenate([lost, settle[settled]])
-    order = np.argsort(key, kind="stable")
-    key, value = key[order], value[order]
-    first = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
-    pair_key = key[first]
-    pair_lost = np.add.reduceat(value, first) if len(value) else np.zeros(0)
-    pair_block = pair_key // N_CAUSES
-    pair_cause = pair_key % N_CAUSES
-    significant = pair_lost > TINY_S
-
-    block_lost = np.bincount(pair_block, weights=pair_lost, minlength=n)
-    # the cause losing each block the most: pairs are grouped by block (sorted key), so the
-    # group maximum and its first pair come from reduceat, linear in the pairs
-    block_cause = np.full(n, int(Limit.NONE), dtype=np.int8)
-    if significant.any():
-        pb, pc, pl = pair_block[significant], pair_cause[significant], pair_lost[significant]
-        start = np.flatnonzero(np.concatenate([[True], pb[1:] != pb[:-1]]))
-        group = np.cumsum(np.concatenate([[True], pb[1:] != pb[:-1]])) - 1
-        top = np.maximum.reduceat(pl, start)
-        best = np.flatnonzero(pl == top[group])
-        best = best[np.concatenate([[True], group[best][1:] != group[best][:-1]])]
-        block_cause[pb[best]] = pc[best]
-
-    kind = path.rapid[pair_block].astype(np.int64)
-    for k in (0, 1):
-        sel = (kind == k) & significant
-        by_cause[k] = np.bincount(pair_cause[sel], weights=pair_lost[sel], minlength=N_CAUSES)
-        blocks_by[k] = np.bincount(pair_cause[sel], minlength=N_CAUSES)
-        for c in np.flatnonzero(blocks_by[k]):
-            where = np.flatnonzero(sel & (pair_cause == c))
-            w = where[int(np.argmax(pair_lost[where]))]
-            worst[k, c], worst_lost[k, c] = pair_block[w], pair_lost[w]
+    block_losses(_f8(motion.piece_t_s), _f8(motion.piece_s_mm), _f8(motion.piece_v_mm_s),
+                 _f8(motion.piece_a_mm_s2), _f8(motion.piece_j_mm_s3), motion.piece_phase,
+                 motion.piece_limit, _f8(motion.t_end_s), ref, settle, path.rapid,
+                 int(Limit.EXACT_STOP), int(Phase.STOP), TINY_S,
+                 block_lost, block_cause, by_cause, blocks_by, worst, worst_lost)
+    np.maximum(block_lost, 0.0, out=block_lost)
     rapid = np.asarray(path.rapid, dtype=bool)
     settle_by_kind = np.array([settle[~rapid].sum(), settle[rapid].sum()])
-    return Losses(reference_mm_s=ref, ideal_s=ideal, lost_s=np.maximum(block_lost, 0.0),
+    return Losses(reference_mm_s=ref, ideal_s=ideal, lost_s=block_lost,
                   settle_s=settle, cause=block_cause, dwell_s=g4_total,
                   by_cause_s=np.maximum(by_cause, 0.0), settle_by_kind_s=settle_by_kind,
                   blocks_by_cause=blocks_by, worst_block=worst, worst_lost_s=worst_lost)

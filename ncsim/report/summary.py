@@ -33,6 +33,7 @@ from ncsim import __version__
 from ncsim.motion import LIMIT_LABELS, Limit, Phase
 from ncsim.plan.sample import block_table, limit_labels
 from ncsim.report.losses import cause_rows, losses
+from ncsim.report.tally import piece_tally, top_order
 from ncsim.units import feed_from_mm_s, mm_min_to_mm_s, mm_s_to_mm_min
 
 SCHEMA_VERSION = 1
@@ -51,35 +52,44 @@ def piece_blocks(motion) -> np.ndarray:
 
 
 def time_by_limit_s(motion) -> dict[str, dict[str, float]]:
-    """Seconds during which each limit holds the feed, split into feed moves and rapids."""
-    dur = np.diff(motion.piece_t_s)
-    out = {"feed": {}, "rapid": {}, "standstill_s": float(dur[motion.piece_phase == Phase.STOP].sum())}
+    """Seconds during which each limit holds the feed, split into feed moves and rapids (a
+    piece counts for the block of :func:`piece_blocks`: ``tally.piece_tally``)."""
+    out = {"feed": {}, "rapid": {}}
+    sums = np.zeros((2, len(LIMIT_LABELS)))
+    stops = np.empty(int(np.count_nonzero(motion.piece_phase == Phase.STOP)))
+    piece_tally(np.ascontiguousarray(motion.piece_t_s, dtype=np.float64), motion.piece_phase,
+                motion.piece_limit, np.ascontiguousarray(motion.t_start_s, dtype=np.float64),
+                motion.path.rapid, int(Phase.STOP), sums, stops)
+    out["standstill_s"] = float(stops.sum())
     if motion.path.n == 0:
         return out
-    rapid = motion.path.rapid[piece_blocks(motion)]
-    moving = motion.piece_phase != Phase.STOP
-    for key, mask in (("feed", moving & ~rapid), ("rapid", moving & rapid)):
-        sums = np.bincount(motion.piece_limit[mask], weights=dur[mask], minlength=len(LIMIT_LABELS))
-        out[key] = {LIMIT_LABELS[i]: float(s) for i, s in enumerate(sums) if s > 0}
+    for k, key in enumerate(("feed", "rapid")):
+        out[key] = {LIMIT_LABELS[i]: float(s) for i, s in enumerate(sums[k]) if s > 0}
     return out
 
 
-def block_rows(motion, loss=None) -> dict[str, np.ndarray]:
+def block_rows(motion, loss=None, index=None) -> dict[str, np.ndarray]:
     """``sample.block_table`` plus the refined per-block limit, the lost time against the
     programmed feed (a rapid: its traverse speed) and the cause losing the block most time
-    (``report.losses``; ``loss`` may be given when already computed)."""
-    rows = block_table(motion)
+    (``report.losses``; ``loss`` may be given when already computed), for the blocks
+    ``index`` (all by default; ``block`` says which)."""
     path = motion.path
+    if index is None:
+        rows = block_table(motion)
+        idx = slice(None)
+    else:
+        idx = np.asarray(index, dtype=np.int64)
+        rows = _table_rows(motion, idx)
     if path.n == 0:
         rows["limit"] = np.zeros(0, dtype=object)
         rows["lost_to"] = np.zeros(0, dtype=object)
         return rows
     loss = losses(motion) if loss is None else loss
-    reference = loss.reference_mm_s
-    rows["time_lost_s"] = loss.lost_s
-    rows["lost_to"] = limit_labels(loss.cause)
+    reference = loss.reference_mm_s[idx]
+    rows["time_lost_s"] = loss.lost_s[idx]
+    rows["lost_to"] = limit_labels(loss.cause[idx])
     # what holds the feed in the middle of the block, as Limit codes (labels made once, last)
-    mid = np.add(motion.t_start_s, motion.t_end_s)
+    mid = np.add(motion.t_start_s[idx], motion.t_end_s[idx])
     mid *= 0.5
     k = np.searchsorted(motion.piece_t_s, mid, side="right")
     del mid
@@ -88,18 +98,34 @@ def block_rows(motion, loss=None) -> dict[str, np.ndarray]:
         np.clip(k, 0, len(motion.piece_limit) - 1, out=k)
         code = motion.piece_limit[k]
     else:
-        code = np.full(path.n, int(Limit.NONE), dtype=np.int8)
+        code = np.full(len(k), int(Limit.NONE), dtype=np.int8)
     del k
-    set_point_binds = motion.cap_mm_s < reference * (1 - 1e-9)
-    reached = motion.feed_max_mm_s >= reference * (1 - 1e-3)
+    cap, cap_limit = motion.cap_mm_s[idx], motion.cap_limit[idx]
+    set_point_binds = cap < reference * (1 - 1e-9)
+    reached = motion.feed_max_mm_s[idx] >= reference * (1 - 1e-3)
     code[reached] = int(Limit.PROGRAMMED)
-    code[set_point_binds] = motion.cap_limit[set_point_binds]
+    code[set_point_binds] = cap_limit[set_point_binds]
     # a rapid that reaches its speed is held by its set-point limit (the axis velocity)
-    held = path.rapid & reached
-    code[held] = motion.cap_limit[held]
+    held = path.rapid[idx] & reached
+    code[held] = cap_limit[held]
     rows["limit"] = limit_labels(code)
-    rows["file_index"] = path.file_index.astype(np.int64)
+    rows["file_index"] = path.file_index[idx].astype(np.int64)
     return rows
+
+
+def _table_rows(motion, idx: np.ndarray) -> dict[str, np.ndarray]:
+    """The columns of ``sample.block_table`` that :func:`block_dicts` shows, for blocks
+    ``idx`` only."""
+    path = motion.path
+    return {
+        "block": idx,
+        "line": path.line[idx].astype(np.int64),
+        "t_start_s": motion.t_start_s[idx],
+        "duration_s": motion.t_end_s[idx] - motion.t_start_s[idx],
+        "feed_programmed_mm_s": path.feed_mm_s[idx],
+        "feed_max_mm_s": motion.feed_max_mm_s[idx],
+        "cap_mm_s": motion.cap_mm_s[idx],
+    }
 
 
 def feed_table(motion) -> list[dict]:
@@ -130,16 +156,20 @@ def summary(sim, *, top: int = 10, include_blocks: bool = True) -> dict:
     path = motion.path
     tbl = time_by_limit_s(motion)
     loss = losses(motion)
-    rows = block_rows(motion, loss)
     dur = motion.duration_s if path.n else np.zeros(0)
     feed_moves = ~path.rapid & (path.length_mm > 0) if path.n else np.zeros(0, bool)
     feed_time = float(dur[feed_moves].sum()) if path.n else 0.0
     ideal = float((path.length_mm[feed_moves] / path.feed_mm_s[feed_moves]).sum()) if path.n else 0.0
     limited = sum(v for k, v in tbl["feed"].items() if k != Limit.PROGRAMMED.label)
     files = path.files
-    order = np.argsort(-rows["time_lost_s"], kind="stable") if path.n else np.zeros(0, np.int64)
-    rapid_order = order[path.rapid[order]][:top] if path.n else order
-    order = order[~path.rapid[order]][:top] if path.n else order
+    order = top_order(loss.lost_s, path.rapid, False, top)
+    rapid_order = top_order(loss.lost_s, path.rapid, True, top)
+    if include_blocks:
+        rows = block_rows(motion, loss)
+        slowest, slowest_rapids = order, rapid_order
+    else:   # only the rows listed
+        rows = block_rows(motion, loss, np.concatenate([order, rapid_order]))
+        slowest, slowest_rapids = np.arange(len(order)), len(order) + np.arange(len(rapid_order))
 
     out = OrderedDict(
         schema=SCHEMA_VERSION, ncsim_version=__version__,
@@ -160,8 +190,8 @@ def summary(sim, *, top: int = 10, include_blocks: bool = True) -> dict:
         dwell_time_s=loss.dwell_s,
         lost_by_cause=cause_rows(loss, files, path),
         feeds=feed_table(motion),
-        slowest_blocks=block_dicts(rows, files, order),
-        slowest_rapids=block_dicts(rows, files, rapid_order),
+        slowest_blocks=block_dicts(rows, files, slowest),
+        slowest_rapids=block_dicts(rows, files, slowest_rapids),
         warnings=[w.render() for w in sim.warnings],
         **approximations(sim),
     )
@@ -180,14 +210,15 @@ def approximations(sim) -> dict:
 
 
 def block_dicts(rows: dict, files, index) -> list[dict]:
-    """One dict per block of ``index`` (keys in README "JSON summary"), built column-wise:
-    a million blocks take about a second (per-element numpy indexing took ~40 us a block)."""
+    """One dict per row ``index`` of ``rows`` (:func:`block_rows`; keys in README "JSON
+    summary"), built column-wise: a million blocks take about a second (per-element numpy
+    indexing took ~40 us a block)."""
     idx = np.asarray(index, dtype=np.int64)
     if len(idx) == 0:
         return []
     file_names = np.asarray(files, dtype=object)[rows["file_index"][idx]].tolist()
     columns = {
-        "block": idx.tolist(), "file": file_names, "line": rows["line"][idx].tolist(),
+        "block": rows["block"][idx].tolist(), "file": file_names, "line": rows["line"][idx].tolist(),
         "t_start_s": rows["t_start_s"][idx].astype(np.float64).tolist(),
         "duration_s": rows["duration_s"][idx].astype(np.float64).tolist(),
         "feed_programmed_mm_min": _feeds(rows["feed_programmed_mm_s"][idx]),
