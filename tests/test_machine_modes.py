@@ -48,7 +48,7 @@ def test_reset_path_mode_is_the_start_of_group_10(mikron):
     assert math.isclose(lim.junction_cap_mm_s[4], min(2500.0, 3000.0) * 0.012 / 1.0)
     assert lim.junction_limit[5] == Limit.EXACT_STOP
     # a programmed G60 still wins over the reset value
-    path, _ = _limits(g64, "G0 X0 Y0\nG60 G1 X10 F600\nG1 Y10\nM30\n")
+    path, _ = _limits(g64, "G0 X5 Y0\nG60 G1 X10 F600\nG1 Y10\nM30\n")
     assert list(path.cp_mode) == [64, 60, 60] and list(path.exact_stop) == [False, True, True]
 
 
