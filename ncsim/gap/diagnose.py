@@ -60,23 +60,21 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, replace
-from typing import Callable, Iterable, Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from ncsim.gap.align import AlignPhase, Alignment, align
-from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, TRACE_EFFECTS, Model, jsonable,
-                      apply_trace_effects, corrected_machine, get_effect, make_base,
-                      model_description)
+from ncsim.gap.effects import (PLANNER_EFFECTS, TRACE_EFFECTS, Model, apply_trace_effects,
+                               corrected_machine, get_effect, make_base, model_description)
 from ncsim.errors import UsageError
+from ncsim.gap.fit import EffectFit, fit_effect
 from ncsim.gap.iso230 import circular_deviation, deviation_profile, radial_deviation_um
 from ncsim.plan.limits import path_limits
 from ncsim.machine import MachineSpec
 from ncsim.gap.measured import MeasuredTrace, derived_speed_mm_s
 from ncsim.gap.metrics import (SLOWEST_FEED_SHARE, SPEED_WINDOW_S, GapMetrics, GapScales,
-                               compare_speed_mm_s, gap_metrics, gap_scales, rms,
-                               shrink_percent)
+                               compare_speed_mm_s, gap_metrics, gap_scales, rms)
 from ncsim.gap.register import Registration, register
 from ncsim.path import ARC, Path
 from ncsim.plan.lookahead import plan
@@ -86,9 +84,6 @@ from ncsim.units import mm_to_um, s_to_ms
 MODEL_DT_S = 2e-3            # model trace grid (chord error a dt^2/8: 0.5 um at 1 m/s^2)
 SETTLE_S = 0.5               # model held at rest after the end (lagging axes settle)
 COMBINE_MIN_GAIN = 0.05      # combined model: an effect must shrink the gap by 5 % more
-N_GRID = 7                   # float parameters: log-spaced grid points before Brent
-MAX_STARTS = 2               # float parameters: local minima of the grid refined
-INT_GRID = (1, 2, 3, 4, 5, 6, 7, 8, 10, 12, 14, 16, 20, 24, 32, 48, 64, 96, 128)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -223,224 +218,6 @@ class Evaluator:
         al = self.align(mt)
         m = gap_metrics(al, mt, self.scales)
         return (m, al, mt) if full else m
-
-
-# ---------------------------------------------------------------------------------------------
-# Fitting one effect
-# ---------------------------------------------------------------------------------------------
-
-@dataclass
-class EffectFit:
-    """One candidate effect fitted on top of a base model."""
-
-    effect: str
-    params: dict
-    model: Model
-    gap_before: GapMetrics
-    gap_after: GapMetrics
-    added: bool                 # True: the base lacked the effect; False: re-fitted
-    n_evals: int = 0
-    seconds: float = 0.0
-    effects: tuple[str, ...] = ()   # for a combined model: the effects in it
-
-    @property
-    def shrink_percent(self) -> float:
-        return shrink_percent(self.gap_before.gap, self.gap_after.gap)
-
-    def metric_shrink(self) -> dict:
-        b, a = self.gap_before.metric_values(), self.gap_after.metric_values()
-        return {k: shrink_percent(b[k], a[k]) for k in b if k in a}
-
-    def as_dict(self) -> dict:
-        return {"effect": self.effect, "title": EFFECTS[self.effect].title if self.effect in EFFECTS else "",
-                "added": self.added, "params": jsonable(self.params),
-                "gap_before": self.gap_before.as_dict(), "gap_after": self.gap_after.as_dict(),
-                "shrink_percent": self.shrink_percent, "metric_shrink_percent": self.metric_shrink(),
-                "n_evals": self.n_evals, "seconds": self.seconds,
-                **({"effects": list(self.effects)} if self.effects else {})}
-
-
-def _float_search(objective, p, x0: float | None, n_grid: int = N_GRID, xtol_rel: float = 4e-3):
-    """Minimise ``objective(x)`` over ``[p.low, p.high]``: a grid (log-spaced if ``p.log``)
-    including ``x0``, then :func:`_refine` around its ``MAX_STARTS`` best local minima."""
-    lo, hi = float(p.low), float(p.high)
-    fwd = (np.log if p.log else (lambda v: v))
-    inv = (np.exp if p.log else (lambda v: v))
-    grid = np.linspace(fwd(lo), fwd(hi), n_grid)
-    if x0 is not None and lo <= x0 <= hi:
-        grid = np.unique(np.append(grid, fwd(x0)))
-    values = np.array([objective(float(inv(g))) for g in grid])
-    best_x, best_f = float(inv(grid[int(np.argmin(values))])), float(np.min(values))
-    if np.ptp(values) <= 1e-12 * max(float(np.max(np.abs(values))), 1e-300):
-        return best_x, best_f            # the parameter changes nothing here: no refinement
-    # refine around each of the (at most MAX_STARTS) best local minima of the grid: the gap can
-    # have a narrow valley between coarse points (a BRISK acceleration, a transition time)
-    # while a broad, shallower dip elsewhere holds the grid's best point
-    interior = [k for k in range(len(grid))
-                if (k == 0 or values[k] <= values[k - 1]) and (k == len(grid) - 1 or values[k] <= values[k + 1])]
-    for k in sorted(interior, key=lambda i: values[i])[:MAX_STARTS]:
-        x, f = _refine(objective, grid, values, k, inv, p.log, xtol_rel)
-        if f < best_f:
-            best_x, best_f = x, f
-    return best_x, best_f
-
-
-def _refine(objective, grid, values, k, inv, log: bool, xtol_rel: float):
-    """A finer grid between grid point ``k``'s neighbours (a narrow valley next to a plateau --
-    a limit that stops binding beyond some value -- is not missed), then bounded Brent between
-    the neighbours of the best point of both."""
-    a, b = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
-    fine = np.linspace(a, b, 6)[1:-1]
-    fine = fine[np.min(np.abs(fine[:, None] - grid[None, :]), axis=1) > 1e-12]
-    g2, v2 = grid, values
-    if len(fine):
-        g2 = np.concatenate([grid, fine])
-        v2 = np.concatenate([values, [objective(float(inv(g))) for g in fine]])
-        order = np.argsort(g2)
-        g2, v2 = g2[order], v2[order]
-        inside = np.nonzero((g2 >= a) & (g2 <= b))[0]
-        k = int(inside[np.argmin(v2[inside])])
-        a, b = g2[max(k - 1, 0)], g2[min(k + 1, len(g2) - 1)]
-    if b - a <= 0:
-        return float(inv(g2[k])), float(v2[k])
-    tol = xtol_rel if log else 0.05 * xtol_rel * max(abs(b - a), 1e-12)
-    res = minimize_scalar(lambda g: objective(float(inv(g))), bounds=(a, b), method="bounded",
-                          options={"xatol": tol})
-    if res.fun <= v2[k]:
-        return float(inv(res.x)), float(res.fun)
-    return float(inv(g2[k])), float(v2[k])
-
-
-def _int_search(objective, p, x0: int | None):
-    """Integer parameter: a geometric scan, then every integer between the best point's
-    neighbours in the scan."""
-    cand = sorted({v for v in INT_GRID if p.low <= v <= p.high} | {int(p.low), int(p.high)}
-                  | ({int(x0)} if x0 is not None and p.low <= x0 <= p.high else set()))
-    values = {v: objective(v) for v in cand}
-    best = min(values, key=values.get)
-    i = cand.index(best)
-    lo, hi = cand[max(i - 1, 0)], cand[min(i + 1, len(cand) - 1)]
-
-    def f(v):
-        if v not in values:
-            values[v] = objective(v)
-        return values[v]
-
-    # golden-section on the integers of [lo, hi] (unimodal near the scan's best), then +-1
-    a, b = lo, hi
-    while b - a > 3:
-        c = a + int(round(0.382 * (b - a)))
-        d = a + int(round(0.618 * (b - a)))
-        if c == d:
-            break
-        if f(c) <= f(d):
-            b = d
-        else:
-            a = c
-    for v in range(a, b + 1):
-        f(v)
-    best = min(values, key=values.get)
-    for v in (best - 1, best + 1):
-        if p.low <= v <= p.high:
-            f(v)
-    best = min(values, key=values.get)
-    return best, values[best]
-
-
-def fit_values(objective, params: Sequence, start: Mapping[str, object], free: Iterable[str]):
-    """Minimise ``objective(values)`` over the ``free`` parameters (others held at
-    ``start``). Choices are enumerated; for each, integers are scanned and floats searched one
-    at a time (coordinate search, two sweeps when more than one is free)."""
-    free = [p for p in params if p.name in set(free)]
-    choices = [p for p in free if p.kind == "choice"]
-    numeric = [p for p in free if p.kind != "choice"]
-    best_vals, best_f = dict(start), math.inf
-    combos = [{}]
-    for p in choices:
-        combos = [dict(c, **{p.name: ch}) for c in combos for ch in p.choices]
-    for combo in combos:
-        vals = dict(start, **combo)
-        f = None
-        sweeps = 2 if len(numeric) > 1 else 1
-        for _ in range(sweeps):
-            for p in numeric:
-                def obj1(x, p=p, vals=vals):
-                    return objective(dict(vals, **{p.name: x}))
-                if p.kind == "int":
-                    x, f = _int_search(obj1, p, vals.get(p.name))
-                else:
-                    x0 = vals.get(p.name)
-                    x, f = _float_search(obj1, p, None if x0 is None else float(x0))
-                vals[p.name] = x
-        floats = [p for p in numeric if p.kind == "float"]
-        if len(floats) >= 2:
-            vals, f = _polish(objective, floats, vals)
-        if f is None:
-            f = objective(vals)
-        if f < best_f:
-            best_vals, best_f = vals, f
-    return best_vals, best_f
-
-
-def _polish(objective, floats, vals):
-    """Nelder-Mead over several float parameters together (log-scaled where the parameter is),
-    from the coordinate-search result: coordinate steps stall in a curved valley (e.g. Kv and
-    the feed-forward weight, which trade off along (1 - k_ff)/Kv)."""
-    from scipy.optimize import minimize
-
-    def to_x(v):
-        return np.array([math.log(v[p.name]) if p.log else v[p.name] for p in floats])
-
-    def to_vals(x):
-        out = dict(vals)
-        for p, xi in zip(floats, x):
-            lo, hi = float(p.low), float(p.high)
-            out[p.name] = min(max(math.exp(xi) if p.log else float(xi), lo), hi)
-        return out
-
-    x0 = to_x(vals)
-    span = np.array([0.1 if p.log else 0.1 * (p.high - p.low) for p in floats])
-    simplex = np.vstack([x0] + [x0 + np.eye(len(floats))[i] * span[i] for i in range(len(floats))])
-    res = minimize(lambda x: objective(to_vals(x)), x0, method="Nelder-Mead",
-                   options={"initial_simplex": simplex, "xatol": 1e-4, "fatol": 1e-10,
-                            "maxfev": 300})
-    best = to_vals(res.x)
-    f = objective(best)
-    f0 = objective(vals)
-    return (best, f) if f <= f0 else (vals, f0)
-
-
-def free_params(effect, command: bool) -> list[str]:
-    return [p.name for p in effect.params if command or not p.fixed_unless_command]
-
-
-def fit_effect(evaluator, base: Model, effect_name: str, *,
-               gap_before=None, command: bool = False) -> EffectFit:
-    """Add (or re-fit) one effect on ``base`` and fit its parameters to minimise the gap.
-
-    ``evaluator`` is anything with ``evaluate(model)`` returning an object with a ``gap``
-    (:class:`Evaluator` for traces, ``published.SummaryEvaluator`` for published values)
-    and an ``n_evals`` counter."""
-    t0 = time.perf_counter()
-    effect = get_effect(effect_name)
-    n0 = evaluator.n_evals
-    if gap_before is None:
-        gap_before = evaluator.evaluate(base)
-    start = effect.check({k: v for k, v in effect.current(base).items()})
-    cache: dict = {}
-
-    def objective(values):
-        key = tuple(sorted((k, round(v, 12) if isinstance(v, float) else v) for k, v in values.items()))
-        if key not in cache:
-            cache[key] = evaluator.evaluate(effect.apply(base, values)).gap ** 2
-        return cache[key]
-
-    values, _ = fit_values(objective, effect.params, start, free_params(effect, command))
-    model = effect.apply(base, values)
-    after = evaluator.evaluate(model)
-    return EffectFit(effect=effect_name, params=effect.check(values), model=model,
-                     gap_before=gap_before, gap_after=after, added=not effect.is_active(base),
-                     n_evals=evaluator.n_evals - n0, seconds=time.perf_counter() - t0)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -45,7 +45,8 @@ from scipy.interpolate import CubicHermiteSpline
 
 from ncsim.gap.effects import EFFECTS, Model, jsonable, compliance_offset_mm, servo_lag_mm
 from ncsim.errors import UsageError
-from ncsim.gap.diagnose import fit_values, free_params, shrink_percent
+from ncsim.gap.fit import fit_values, free_params
+from ncsim.gap.metrics import shrink_percent
 from ncsim.machine import MachineSpec
 from ncsim.gap.measured import MeasuredTrace
 from ncsim.gap.lag import LagEstimate, estimate_lag, three_significant_figures_step_mm
