@@ -65,10 +65,11 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from ncsim.gap.align import AlignPhase, Alignment, align
-from ncsim.gap.effects import (PLANNER_EFFECTS, TRACE_EFFECTS, Model, apply_trace_effects,
-                               corrected_machine, get_effect, make_base, model_description)
+from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, REINTERPRETING, TRACE_EFFECTS, Model,
+                               apply_trace_effects, corrected_machine, get_effect, make_base,
+                               model_description)
 from ncsim.errors import UsageError
-from ncsim.gap.fit import EffectFit, fit_effect
+from ncsim.gap.fit import EffectFit, choice_variants, fit_effect
 from ncsim.gap.iso230 import circular_deviation, deviation_profile, radial_deviation_um
 from ncsim.plan.limits import path_limits
 from ncsim.machine import MachineSpec
@@ -105,18 +106,48 @@ class ModelTrace:
     compare_speed_mm_s: np.ndarray | None = None  # speed through the measured's operator
 
 
+def interpretation_key(machine: MachineSpec) -> tuple:
+    """What the interpreter takes from the machine that an effect may change: the group-10
+    reset value (MD20150, ``effects.ResetPathMode``). Models that differ here need the program
+    interpreted again."""
+    return (machine.ncu.reset_path_mode,)
+
+
 class ModelCache:
     """Plans and samples a path under models, re-planning only when the planner's inputs
-    (machine, options) change."""
+    (machine, options) change.
+
+    ``path`` was interpreted on a machine with interpretation key ``path_key``
+    (:func:`interpretation_key`; None: any). A model whose machine has another key is planned
+    on ``reinterpret(machine)`` (the program interpreted again, cached); without
+    ``reinterpret`` such a model is a :class:`~ncsim.errors.UsageError`."""
 
     def __init__(self, path: Path, dt_s: float = MODEL_DT_S, settle_s: float = SETTLE_S,
-                 max_plans: int = 64):
+                 max_plans: int = 64, *, reinterpret=None, path_key: tuple | None = None):
         self.path = path
         self.dt_s = dt_s
         self.settle_s = settle_s
         self._plans: dict = {}
         self._limits: dict = {}
         self.max_plans = max_plans
+        self.reinterpret = reinterpret
+        self._paths: dict = {} if path_key is None else {path_key: path}
+
+    def path_for(self, machine: MachineSpec) -> Path:
+        """The path the model's machine makes of the program (see the class docstring)."""
+        if not self._paths:
+            return self.path
+        key = interpretation_key(machine)
+        hit = self._paths.get(key)
+        if hit is None:
+            if self.reinterpret is None:
+                raise UsageError("this model changes how the program is interpreted (reset path "
+                                 "mode): it needs the program, not only its path")
+            hit = self._paths[key] = self.reinterpret(machine)
+            if hit.n != self.path.n:
+                raise UsageError(f"the program interpreted again has {hit.n} blocks, not "
+                                 f"{self.path.n}")
+        return hit
 
     def limits(self, model: Model):
         """Stage 1 of the planner (``limits.path_limits``), shared by models that differ only in
@@ -124,7 +155,7 @@ class ModelCache:
         key = (model.machine.with_ncu(lookahead_blocks=1), replace(model.options, lookahead=True))
         hit = self._limits.get(key)
         if hit is None:
-            hit = path_limits(self.path, model.machine, model.options)
+            hit = path_limits(self.path_for(model.machine), model.machine, model.options)
             if len(self._limits) >= self.max_plans:
                 self._limits.pop(next(iter(self._limits)))
             self._limits[key] = hit
@@ -136,7 +167,8 @@ class ModelCache:
         hit = self._plans.get(key)
         if hit is not None:
             return hit
-        motion = plan(self.path, model.machine, model.options, limits=self.limits(model))
+        motion = plan(self.path_for(model.machine), model.machine, model.options,
+                      limits=self.limits(model))
         total = motion.total_time_s
         n = int(math.ceil((total + self.settle_s) / self.dt_s)) + 1
         t = np.arange(n) * self.dt_s
@@ -154,7 +186,10 @@ class ModelCache:
             feed = np.linalg.norm(np.gradient(pos, t, axis=0), axis=1)
         else:
             feed = tr.feed_mm_s
-        return ModelTrace(t_s=t, pos_mm=pos, s_mm=tr.s_mm, block=tr.block, phase=tr.phase,
+        # s(t) from the constant-jerk pieces can step back by rounding (1e-14 mm) where a
+        # ramp ends at rest: the place along the path never goes back
+        s_mm = np.maximum.accumulate(tr.s_mm)
+        return ModelTrace(t_s=t, pos_mm=pos, s_mm=s_mm, block=tr.block, phase=tr.phase,
                           feed_mm_s=feed, setpoint=tr, cycle_time_s=total)
 
     def motion(self, model: Model):
@@ -169,7 +204,8 @@ class Evaluator:
     """Gap of models against one measured trace on one path (caches the plans)."""
 
     def __init__(self, path: Path, measured: MeasuredTrace, *, dt_s: float = MODEL_DT_S,
-                 align_options: Mapping | None = None, registration: Registration | None = None):
+                 align_options: Mapping | None = None, registration: Registration | None = None,
+                 reinterpret=None, path_key: tuple | None = None):
         if len(measured) < 10:
             raise UsageError(f"{measured.source}: {len(measured)} samples, need at least 10 "
                              "to diagnose a gap")
@@ -181,7 +217,7 @@ class Evaluator:
             raise UsageError(f"{measured.source}: the registration has {len(registration.s_mm)} "
                              f"samples, the trace {len(measured)}")
         self.registration = registration
-        self.cache = ModelCache(path, dt_s=dt_s)
+        self.cache = ModelCache(path, dt_s=dt_s, reinterpret=reinterpret, path_key=path_key)
         seg = np.unique(registration.segment)
         feeds = path.feed_mm_s[seg][~path.rapid[seg] & np.isfinite(path.feed_mm_s[seg])]
         cap = SLOWEST_FEED_SHARE * float(feeds.min()) if feeds.size else math.inf
@@ -376,52 +412,157 @@ def default_candidates(command: bool = False) -> tuple[str, ...]:
     return PLANNER_EFFECTS + TRACE_EFFECTS + (("servo_delay",) if command else ())
 
 
-def combine(evaluator, fits: Sequence[EffectFit], gap_before,
-            max_effects: int = 4, max_tries: int = 4) -> EffectFit | None:
-    """Greedy combined model: start from the first fit (the best single effect); try the next
-    ones that shrank the gap on their own (at most ``max_tries``), each re-fitted on top of the
-    current model with the earlier effects held, and keep those that shrink the current gap by
-    at least ``COMBINE_MIN_GAIN`` of its value. ``fits`` gives the order of the trials."""
+#: ranking: a fit must beat a simpler one by this share of its gap per extra free parameter
+PARSIMONY_SHARE = 1e-3
+#: fits whose gaps are within this share of the best one's are reported as indistinguishable
+TIE_SHARE = 0.01
+
+
+def rank_fits(fits: Sequence[EffectFit]) -> list[EffectFit]:
+    """Best first by the gap after the fit; between fits that leave (nearly) the same gap the
+    one with fewer free parameters first: each free parameter costs ``PARSIMONY_SHARE`` of the
+    gap (a BRISK acceleration and an axis acceleration on a BRISK program are the same
+    model, and the simpler name is the better answer)."""
+    def key(f):
+        n = len(get_effect(f.effect).params) if f.effect in EFFECTS else 1
+        return f.gap_after.gap * (1.0 + PARSIMONY_SHARE * n)
+    return sorted(fits, key=key)
+
+
+def indistinguishable(fits: Sequence[EffectFit]) -> list[str]:
+    """The effects (after the best) that leave a gap within ``TIE_SHARE`` of the best's."""
+    if not fits or fits[0].shrink_percent <= 0:
+        return []
+    best = fits[0].gap_after.gap
+    return [f.effect for f in fits[1:] if f.gap_after.gap <= best * (1.0 + TIE_SHARE)]
+
+
+def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, *,
+                   max_effects: int = 5, n_full: int = 2, width: int = 1) -> EffectFit | None:
+    """Combined model by forward selection with a small beam: start from the best single fit;
+    at each step, for each of the ``width`` best models so far, screen every candidate it
+    lacks on top of it with a coarse fit (grids only, :func:`~ncsim.gap.fit.fit_values`), fit
+    the ``n_full`` best fully, and keep the children that shrink their parent's gap by at
+    least ``COMBINE_MIN_GAIN``; the ``width`` best children (one per set of effects) go on.
+    Unlike a greedy pass in the order of the single fits, an effect that only shows once
+    another is in the model (a G64 corner velocity once the machine runs continuous path) is
+    found, and a first choice that fits a little better (exact stop with no settle against
+    continuous path) does not lock the others out. The best model seen is returned."""
     if not fits or fits[0].shrink_percent <= 0:
         return None
     t0 = time.perf_counter()
     n0 = evaluator.n_evals
-    current = fits[0]
-    chosen = [fits[0].effect]
-    params = {fits[0].effect: fits[0].params}
-    tried = 0
-    for f in fits[1:]:
-        if len(chosen) >= max_effects or tried >= max_tries or f.shrink_percent <= 0.5:
-            continue
-        tried += 1
-        trial = fit_effect(evaluator, current.model, f.effect, gap_before=current.gap_after)
-        if trial.gap_after.gap < current.gap_after.gap * (1.0 - COMBINE_MIN_GAIN):
-            current = trial
-            chosen.append(f.effect)
-            params[f.effect] = trial.params
+    names = [f.effect for f in fits]
+    # (fit of the current model, chosen effects, their parameters)
+    beam = [(fits[0], (fits[0].effect,), {fits[0].effect: fits[0].params})]
+    best = beam[0]
+    for _ in range(max_effects - 1):
+        children: dict = {}
+        for current, chosen, params in beam:
+            # each choice of a discrete parameter is its own hypothesis (G60 or G64 ...)
+            variants = [(n, v) for n in names if n not in chosen for v in choice_variants(n)]
+            if not variants:
+                continue
+            screen = [(fit_effect(evaluator, current.model, n, gap_before=current.gap_after,
+                                  coarse=True, fixed=v), v) for n, v in variants]
+            screen.sort(key=lambda fv: fv[0].gap_after.gap)
+            for f, v in screen[:n_full]:
+                trial = fit_effect(evaluator, current.model, f.effect,
+                                   gap_before=current.gap_after, fixed=v)
+                if trial.gap_after.gap >= current.gap_after.gap * (1.0 - COMBINE_MIN_GAIN):
+                    continue
+                trial, params = _backfit(evaluator, trial, chosen, params, current.gap_after)
+                key = frozenset(_labels(chosen, params) | {_label(trial.effect, trial.params)})
+                if key not in children or trial.gap_after.gap < children[key][0].gap_after.gap:
+                    children[key] = (trial, chosen + (trial.effect,), params)
+        if not children:
+            break
+        ranked = sorted(children.values(), key=lambda node: node[0].gap_after.gap)
+        beam = ranked[:width]
+        # keep every structural hypothesis alive: the best node of each set of discrete
+        # choices (G60 or G64, SOFT or BRISK) goes on even when others fit better so far
+        seen = {_structure(n[1], n[2]) for n in beam}
+        for node in ranked[width:]:
+            sig = _structure(node[1], node[2])
+            if sig not in seen:
+                seen.add(sig)
+                beam.append(node)
+        if beam[0][0].gap_after.gap < best[0].gap_after.gap:
+            best = beam[0]
+    fit, chosen, params = best
     if len(chosen) == 1:
         return None
     return EffectFit(effect="+".join(chosen), params={k: v for e in chosen for k, v in params[e].items()},
-                     model=current.model, gap_before=gap_before, gap_after=current.gap_after,
+                     model=fit.model, gap_before=gap_before, gap_after=fit.gap_after,
                      added=True, n_evals=evaluator.n_evals - n0,
                      seconds=time.perf_counter() - t0, effects=tuple(chosen))
+
+
+def _backfit(evaluator, trial: EffectFit, chosen, params, gap_before):
+    """Re-fit the effects already in the model, one at a time with the others held, once the
+    new one (``trial``) is in: an earlier fit made without it may sit at a bound (a corner
+    jump fitted before the acceleration that shapes the corner ramps). Discrete choices are
+    kept (they are the node's hypothesis). Returns the improved fit and every effect's
+    parameters."""
+    params = {**params, trial.effect: trial.params}
+    current = trial
+    for name in chosen:
+        fixed = {p.name: params[name][p.name] for p in get_effect(name).params if p.kind == "choice"}
+        refit = fit_effect(evaluator, current.model, name, gap_before=gap_before, fixed=fixed)
+        if refit.gap_after.gap < current.gap_after.gap:
+            current = refit
+            params[name] = refit.params
+    if current is not trial:
+        current = replace(trial, model=current.model, gap_after=current.gap_after,
+                          n_evals=trial.n_evals + current.n_evals)
+    return current, params
+
+
+def _label(effect: str, params: Mapping) -> str:
+    """An effect with the values of its discrete parameters: ``reset_mode[G64]``."""
+    choices = [str(params[p.name]) for p in get_effect(effect).params if p.kind == "choice"]
+    return effect + (f"[{','.join(choices)}]" if choices else "")
+
+
+def _labels(chosen, params) -> set:
+    return {_label(e, params[e]) for e in chosen}
+
+
+def _structure(chosen, params) -> frozenset:
+    """The discrete choices a model makes (its structural hypothesis)."""
+    return frozenset(label for label in _labels(chosen, params) if label.endswith("]"))
 
 
 def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base: str = "full",
              candidates: Sequence[str] | None = None, do_combine: bool = True,
              localisation: bool = True, align_options: Mapping | None = None,
              program: str = "", registration: Registration | None = None,
-             progress: Callable[[str], None] | None = None) -> Diagnosis:
+             progress: Callable[[str], None] | None = None, reinterpret=None,
+             recorder_window_ms: float | None = None) -> Diagnosis:
     """Diagnose the gap between ``measured`` and the ``base`` model of ``path`` on ``machine``
-    (module docstring). ``candidates`` defaults to every planner effect and the servo and
-    structure effects. ``registration`` places the samples on the path
+    (module docstring). ``candidates`` defaults to every planner effect and the servo,
+    structure and recorder effects. ``registration`` places the samples on the path
     (``ncsim.gap.register``; registered here when not given); ``progress`` is called with the
-    name of each fit as it begins."""
+    name of each fit as it begins. ``reinterpret(machine) -> Path`` interprets the program
+    again on another machine (``path`` is the program interpreted on ``machine``); without it
+    the effects that change the interpretation (``reset_mode``) are left out of the defaults.
+    ``recorder_window_ms``: the recorder's moving average when it is known (e.g. 20 ms for 10
+    samples at 500 Hz): the base model is compared after it, and ``recorder`` re-fits it."""
     t0 = time.perf_counter()
     base_model = make_base(machine, base)
-    ev = Evaluator(path, measured, align_options=align_options, registration=registration)
+    if recorder_window_ms is not None:
+        base_model = get_effect("recorder").apply(base_model, {"window_ms": recorder_window_ms})
+    ev = Evaluator(path, measured, align_options=align_options, registration=registration,
+                   reinterpret=reinterpret, path_key=interpretation_key(machine))
     before, al, mt = ev.evaluate(base_model, full=True)
-    cands = tuple(candidates) if candidates is not None else default_candidates()
+    notes = []
+    if candidates is not None:
+        cands = tuple(candidates)
+    else:
+        cands = default_candidates()
+        if reinterpret is None:
+            cands = tuple(c for c in cands if c not in REINTERPRETING)
+            notes.append("reset_mode not tried: it needs the program to interpret it again")
     for c in cands:
         get_effect(c)
     fits = []
@@ -429,11 +570,14 @@ def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base:
         if progress is not None:
             progress(f"fit {c}")
         fits.append(fit_effect(ev, base_model, c, gap_before=before))
-    fits.sort(key=lambda f: f.gap_after.gap)
+    fits = rank_fits(fits)
     if do_combine and progress is not None:
         progress("combine")
-    comb = combine(ev, fits, before) if do_combine else None
-    notes = []
+    comb = forward_select(ev, fits, before) if do_combine else None
+    ties = indistinguishable(fits)
+    if ties:
+        notes.append(f"{fits[0].effect}: on this trace as good as " + ", ".join(ties)
+                     + f" (gaps within {100 * TIE_SHARE:g} %)")
     loc_before = localise(al, mt, path, ev.scales, measured) if localisation else {}
     loc_after = None
     if localisation:

@@ -324,7 +324,10 @@ class CycleTimeLimit(Effect):
         return {"ipo_cycle_ms": s_to_ms(model.machine.ncu.ipo_cycle_s)}
 
     def apply_planner(self, machine, options, v):
-        m = machine.with_ncu(ipo_cycle_s=ms_to_s(v["ipo_cycle_ms"]))
+        t_cy = ms_to_s(v["ipo_cycle_ms"])
+        # the G64 corner jump f A t_cy is corner_jump's parameter: keep it
+        f = machine.ncu.corner_velocity_jump_factor * machine.ncu.ipo_cycle_s / t_cy
+        m = machine.with_ncu(ipo_cycle_s=t_cy, corner_velocity_jump_factor=f)
         return m, replace(options, cycle_time_limit=True)
 
 
@@ -458,11 +461,17 @@ class AxisVelocity(MachineValue):
 @dataclass(frozen=True)
 class AxisAccel(MachineValue):
     def current(self, model):
-        return {"axis_accel_m_s2": mm_s2_to_m_s2(float(model.machine.max_accel_mm_s2[0]))}
+        a = model.machine.max_accel_mm_s2
+        return {"xy_accel_m_s2": mm_s2_to_m_s2(float(a[0])), "z_accel_m_s2": mm_s2_to_m_s2(float(a[2]))}
 
     def apply_planner(self, machine, options, v):
-        ratio = _plane_ratio(np.array(machine.max_accel_mm_s2))
-        return machine.with_axes(max_accel_mm_s2=m_s2_to_mm_s2(v["axis_accel_m_s2"]) * ratio), options
+        old = np.array(machine.max_accel_mm_s2)
+        x = m_s2_to_mm_s2(v["xy_accel_m_s2"])
+        new = np.array([x, x * old[1] / old[0], m_s2_to_mm_s2(v["z_accel_m_s2"])])
+        m = machine.with_axes(max_accel_mm_s2=new)
+        # the G64 corner jump f A t_IPO is fitted on its own (corner_jump): keep it
+        return m.with_ncu(corner_velocity_jump_factor=machine.ncu.corner_velocity_jump_factor
+                          * old[0] / new[0]), options
 
 
 @dataclass(frozen=True)
@@ -590,9 +599,12 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
         "The acceleration the ramps and the normal acceleration on curves may use (MD32300 "
         "$MA_MAX_AX_ACCEL, eq. 2, 8): tangential ramps at min_i A_mi / |t_i|, whatever the "
         "acceleration mode the program selects (BRISK: at that acceleration; SOFT: jerk-"
-        "limited up to it).",
-        (Param("axis_accel_m_s2", "m/s^2", 0.05, 20.0, "maximum X-axis acceleration A_mx (Y and "
-               "Z keep their machine-file ratio to X)"),)),
+        "limited up to it). The plane axes X, Y and the infeed axis Z are fitted apart (a "
+        "vertical axis carries the head and often runs another acceleration); the G64 corner "
+        "jump is held (it is corner_jump's parameter).",
+        (Param("xy_accel_m_s2", "m/s^2", 0.05, 20.0, "maximum X-axis acceleration A_mx (Y keeps "
+               "its machine-file ratio to X)"),
+         Param("z_accel_m_s2", "m/s^2", 0.05, 20.0, "maximum Z-axis acceleration A_mz"))),
     ResetPathMode(
         "reset_mode", "exact stop or continuous path as the reset mode, with the settle time",
         "Where a program sets no path mode the 840D runs its reset value (MD20150 "
@@ -658,6 +670,10 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
 PLANNER_EFFECTS = tuple(n for n, e in EFFECTS.items() if e.kind == "planner")
 #: trace effects that act on a simulated path (the servo part adds ``servo_delay``)
 TRACE_EFFECTS = tuple(n for n, e in EFFECTS.items() if e.kind == "trace" and not e.command_only)
+#: what can shape a recorded command: the planner effects and the recorder's own filter
+COMMAND_EFFECTS = PLANNER_EFFECTS + ("recorder",)
+#: effects that change how the program is interpreted (they need the program, not a path)
+REINTERPRETING = ("reset_mode",)
 
 
 def get_effect(name: str) -> Effect:

@@ -25,6 +25,8 @@ from ncsim.gap.metrics import shrink_percent
 N_GRID = 7                   # float parameters: log-spaced grid points before Brent
 MAX_STARTS = 2               # float parameters: local minima of the grid refined
 INT_GRID = (1, 2, 3, 4, 5, 6, 7, 8, 10, 12, 14, 16, 20, 24, 32, 48, 64, 96, 128)
+COARSE_GRID = 4              # coarse fits (screening): grid points of a float
+COARSE_INT_GRID = (1, 2, 4, 8, 16, 32, 64, 128)
 
 
 @dataclass
@@ -58,18 +60,27 @@ class EffectFit:
                 **({"effects": list(self.effects)} if self.effects else {})}
 
 
-def _float_search(objective, p, x0: float | None, n_grid: int = N_GRID, xtol_rel: float = 4e-3):
+def _float_search(objective, p, x0: float | None, n_grid: int = N_GRID, xtol_rel: float = 4e-3,
+                  coarse: bool = False):
     """Minimise ``objective(x)`` over ``[p.low, p.high]``: a grid (log-spaced if ``p.log``)
-    including ``x0``, then :func:`_refine` around its ``MAX_STARTS`` best local minima."""
+    including ``x0``, then :func:`_refine` around its ``MAX_STARTS`` best local minima
+    (``coarse``: the grid alone)."""
     lo, hi = float(p.low), float(p.high)
     fwd = (np.log if p.log else (lambda v: v))
     inv = (np.exp if p.log else (lambda v: v))
-    grid = np.linspace(fwd(lo), fwd(hi), n_grid)
+    grid = np.linspace(fwd(lo), fwd(hi), COARSE_GRID if coarse else n_grid)
     if x0 is not None and lo <= x0 <= hi:
         grid = np.unique(np.append(grid, fwd(x0)))
+    if coarse:
+        # the ends first: a parameter that changes nothing there is not looked at further
+        ends = [objective(float(inv(g))) for g in (grid[0], grid[-1])]
+        if ends[0] == ends[1]:
+            mid = objective(float(inv(grid[len(grid) // 2])))
+            if mid == ends[0]:
+                return float(inv(grid[0])), ends[0]
     values = np.array([objective(float(inv(g))) for g in grid])
     best_x, best_f = float(inv(grid[int(np.argmin(values))])), float(np.min(values))
-    if np.ptp(values) <= 1e-12 * max(float(np.max(np.abs(values))), 1e-300):
+    if coarse or np.ptp(values) <= 1e-12 * max(float(np.max(np.abs(values))), 1e-300):
         return best_x, best_f            # the parameter changes nothing here: no refinement
     # refine around each of the (at most MAX_STARTS) best local minima of the grid: the gap can
     # have a narrow valley between coarse points (a BRISK acceleration, a transition time)
@@ -109,13 +120,16 @@ def _refine(objective, grid, values, k, inv, log: bool, xtol_rel: float):
     return float(inv(g2[k])), float(v2[k])
 
 
-def _int_search(objective, p, x0: int | None):
+def _int_search(objective, p, x0: int | None, coarse: bool = False):
     """Integer parameter: a geometric scan, then every integer between the best point's
-    neighbours in the scan."""
-    cand = sorted({v for v in INT_GRID if p.low <= v <= p.high} | {int(p.low), int(p.high)}
+    neighbours in the scan (``coarse``: the scan alone)."""
+    cand = sorted({v for v in (COARSE_INT_GRID if coarse else INT_GRID) if p.low <= v <= p.high}
+                  | {int(p.low), int(p.high)}
                   | ({int(x0)} if x0 is not None and p.low <= x0 <= p.high else set()))
     values = {v: objective(v) for v in cand}
     best = min(values, key=values.get)
+    if coarse:
+        return best, values[best]
     i = cand.index(best)
     lo, hi = cand[max(i - 1, 0)], cand[min(i + 1, len(cand) - 1)]
 
@@ -145,10 +159,12 @@ def _int_search(objective, p, x0: int | None):
     return best, values[best]
 
 
-def fit_values(objective, params: Sequence, start: Mapping[str, object], free: Iterable[str]):
+def fit_values(objective, params: Sequence, start: Mapping[str, object], free: Iterable[str],
+               coarse: bool = False):
     """Minimise ``objective(values)`` over the ``free`` parameters (others held at
     ``start``). Choices are enumerated; for each, integers are scanned and floats searched one
-    at a time (coordinate search, two sweeps when more than one is free)."""
+    at a time (coordinate search, two sweeps when more than one is free). ``coarse``: one sweep
+    of the grids alone, no refinement (a cheap screen of many candidates)."""
     free = [p for p in params if p.name in set(free)]
     choices = [p for p in free if p.kind == "choice"]
     numeric = [p for p in free if p.kind != "choice"]
@@ -159,19 +175,19 @@ def fit_values(objective, params: Sequence, start: Mapping[str, object], free: I
     for combo in combos:
         vals = dict(start, **combo)
         f = None
-        sweeps = 2 if len(numeric) > 1 else 1
+        sweeps = 2 if len(numeric) > 1 and not coarse else 1
         for _ in range(sweeps):
             for p in numeric:
                 def obj1(x, p=p, vals=vals):
                     return objective(dict(vals, **{p.name: x}))
                 if p.kind == "int":
-                    x, f = _int_search(obj1, p, vals.get(p.name))
+                    x, f = _int_search(obj1, p, vals.get(p.name), coarse=coarse)
                 else:
                     x0 = vals.get(p.name)
-                    x, f = _float_search(obj1, p, None if x0 is None else float(x0))
+                    x, f = _float_search(obj1, p, None if x0 is None else float(x0), coarse=coarse)
                 vals[p.name] = x
         floats = [p for p in numeric if p.kind == "float"]
-        if len(floats) >= 2:
+        if len(floats) >= 2 and not coarse:
             vals, f = _polish(objective, floats, vals)
         if f is None:
             f = objective(vals)
@@ -208,23 +224,35 @@ def _polish(objective, floats, vals):
     return (best, f) if f <= f0 else (vals, f0)
 
 
+def choice_variants(effect_name: str) -> list[dict]:
+    """Every combination of the effect's discrete (choice) parameters, ``[{}]`` if it has
+    none: the structural hypotheses a search may keep apart (G60 or G64, SOFT or BRISK)."""
+    combos: list[dict] = [{}]
+    for p in get_effect(effect_name).params:
+        if p.kind == "choice":
+            combos = [dict(c, **{p.name: ch}) for c in combos for ch in p.choices]
+    return combos
+
+
 def free_params(effect, command: bool) -> list[str]:
     return [p.name for p in effect.params if command or not p.fixed_unless_command]
 
 
 def fit_effect(evaluator, base: Model, effect_name: str, *,
-               gap_before=None, command: bool = False) -> EffectFit:
+               gap_before=None, command: bool = False, coarse: bool = False,
+               fixed: Mapping[str, object] | None = None) -> EffectFit:
     """Add (or re-fit) one effect on ``base`` and fit its parameters to minimise the gap.
 
     ``evaluator`` is anything with ``evaluate(model)`` returning an object with a ``gap``
-    (:class:`Evaluator` for traces, ``published.SummaryEvaluator`` for published values)
-    and an ``n_evals`` counter."""
+    (``diagnose.Evaluator`` for traces, ``published.SummaryEvaluator`` for published values)
+    and an ``n_evals`` counter. ``coarse``: grids only (see :func:`fit_values`). ``fixed``:
+    parameters held at given values (e.g. one choice of a discrete parameter)."""
     t0 = time.perf_counter()
     effect = get_effect(effect_name)
     n0 = evaluator.n_evals
     if gap_before is None:
         gap_before = evaluator.evaluate(base)
-    start = effect.check({k: v for k, v in effect.current(base).items()})
+    start = effect.check({**effect.current(base), **(fixed or {})})
     cache: dict = {}
 
     def objective(values):
@@ -233,7 +261,8 @@ def fit_effect(evaluator, base: Model, effect_name: str, *,
             cache[key] = evaluator.evaluate(effect.apply(base, values)).gap ** 2
         return cache[key]
 
-    values, _ = fit_values(objective, effect.params, start, free_params(effect, command))
+    free = [n for n in free_params(effect, command) if n not in (fixed or {})]
+    values, _ = fit_values(objective, effect.params, start, free, coarse=coarse)
     model = effect.apply(base, values)
     after = evaluator.evaluate(model)
     return EffectFit(effect=effect_name, params=effect.check(values), model=model,
