@@ -5,7 +5,8 @@ Pipeline (:func:`diagnose`):
 
 1. **Base model** (``effects.make_base``): e.g. ``full`` or ``axis-only``; its *model trace* is
    the planned motion sampled on a uniform grid (``MODEL_DT_S``, 2 ms; held at rest for
-   ``SETTLE_S`` after the end so that lagging axes can settle) and passed through the model's
+   ``SETTLE_S`` after the end so that lagging axes can settle, and preceded by ``LEAD_S`` of
+   rest) and passed through the model's
    trace effects (servo, structure).
 2. **Alignment**: the recording is registered on the program once (``ncsim.gap.register``:
    the blocks and pass it covers, the work offset, each sample's place on the path), then, per
@@ -84,6 +85,7 @@ from ncsim.units import mm_to_um, s_to_ms
 
 MODEL_DT_S = 2e-3            # model trace grid (chord error a dt^2/8: 0.5 um at 1 m/s^2)
 SETTLE_S = 0.5               # model held at rest after the end (lagging axes settle)
+LEAD_S = 0.1                 # model traces start with this much rest (before the motion)
 COMBINE_MIN_GAIN = 0.05      # combined model: an effect must shrink the gap by 5 % more
 
 
@@ -95,7 +97,7 @@ COMBINE_MIN_GAIN = 0.05      # combined model: an effect must shrink the gap by 
 class ModelTrace:
     """A model's predicted positions on a uniform grid, with the planner's labels."""
 
-    t_s: np.ndarray          # (n,) uniform grid from 0
+    t_s: np.ndarray          # (n,) uniform grid from -LEAD_S (the motion starts at 0)
     pos_mm: np.ndarray       # (n, 3) set point after the model's trace effects
     s_mm: np.ndarray         # (n,) path length of the set point (non-decreasing)
     block: np.ndarray        # (n,) block of the set point
@@ -180,6 +182,11 @@ class ModelCache:
 
     def trace(self, model: Model) -> ModelTrace:
         t, tr, total, _ = self.setpoint(model)
+        # LEAD_S of rest before the start: a centred filter (the recorder) reaches before it,
+        # and a measured trace that starts at rest meets a model that does too
+        n_lead = int(round(LEAD_S / self.dt_s))
+        tr = tr.select(np.r_[np.zeros(n_lead, dtype=np.int64), np.arange(len(t))])
+        t = np.r_[t[0] - self.dt_s * np.arange(n_lead, 0, -1), t]
         pos = tr.pos_mm
         if model.post:
             pos = apply_trace_effects(model, tr, t, pos)
