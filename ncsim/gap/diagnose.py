@@ -449,7 +449,7 @@ def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, *,
     """Combined model by forward selection with a small beam: start from the best single fit;
     at each step, for each of the ``width`` best models so far, screen every candidate it
     lacks on top of it with a coarse fit (grids only, :func:`~ncsim.gap.fit.fit_values`), fit
-    the ``n_full`` best fully, and keep the children that shrink their parent's gap by at
+    the ``n_full`` best and every choice of a discrete parameter fully, and keep the children that shrink their parent's gap by at
     least ``COMBINE_MIN_GAIN``; the ``width`` best children (one per set of effects) go on.
     Unlike a greedy pass in the order of the single fits, an effect that only shows once
     another is in the model (a G64 corner velocity once the machine runs continuous path) is
@@ -473,7 +473,10 @@ def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, *,
             screen = [(fit_effect(evaluator, current.model, n, gap_before=current.gap_after,
                                   coarse=True, fixed=v), v) for n, v in variants]
             screen.sort(key=lambda fv: fv[0].gap_after.gap)
-            for f, v in screen[:n_full]:
+            # the n_full best, and every structural hypothesis (a coarse grid may miss the
+            # settle time that makes continuous path pay off)
+            chosen_fits = screen[:n_full] + [fv for fv in screen[n_full:] if fv[1]]
+            for f, v in chosen_fits:
                 trial = fit_effect(evaluator, current.model, f.effect,
                                    gap_before=current.gap_after, fixed=v)
                 if trial.gap_after.gap >= current.gap_after.gap * (1.0 - COMBINE_MIN_GAIN):
