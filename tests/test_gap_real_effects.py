@@ -76,20 +76,22 @@ def test_machine_value_effects_apply_remove_and_hold_the_corner_jump(mikron):
     assert cj.current(m)["corner_jump_mm_s"] == pytest.approx(1.7)
 
     rm = get_effect("reset_mode")
-    m = rm.apply(base, {"path_mode": "G64", "settle_ms": 12.5})
+    m = rm.apply(base, {"path_mode": "G64", "settle_ms": 12.5, "corner_jump_mm_s": 1.7})
     ncu = m.machine.ncu
     assert (ncu.reset_path_mode, ncu.exact_pos_mode_g0_to_g1) == (64, 1)
     assert ncu.exact_stop_fine_settle_s == pytest.approx(0.0125) and rm.is_active(m)
     assert not rm.is_active(base)
     g642 = make_base(mikron.with_ncu(reset_path_mode=642))
-    assert rm.apply(g642, {"path_mode": "G64", "settle_ms": 0}).machine.ncu.reset_path_mode == 642
+    assert cj.current(m)["corner_jump_mm_s"] == pytest.approx(1.7)   # continuous path with its corners
+    assert rm.apply(g642, {"path_mode": "G64", "settle_ms": 0, "corner_jump_mm_s": 30.0}
+                    ).machine.ncu.reset_path_mode == 642
 
 
 def test_corrected_machine_file_holds_the_fitted_settings(mikron):
     m = make_base(mikron)
     for name, values in (("rapid_override", {"rapid_override_percent": 10.0}),
-                         ("reset_mode", {"path_mode": "G64", "settle_ms": 12.5}),
-                         ("corner_jump", {"corner_jump_mm_s": 1.5}),
+                         ("reset_mode", {"path_mode": "G64", "settle_ms": 12.5,
+                                         "corner_jump_mm_s": 1.5}),
                          ("axis_accel", {"xy_accel_m_s2": 0.3, "z_accel_m_s2": 1.4}),
                          ("recorder", {"window_ms": 20.0})):
         m = get_effect(name).apply(m, values)
@@ -109,7 +111,8 @@ def test_corrected_machine_file_holds_the_fitted_settings(mikron):
 
 def test_model_cache_interprets_again_for_another_reset_mode(mikron):
     path = interpret_text(SQUARE, "<sq>", mikron).path
-    g64 = get_effect("reset_mode").apply(make_base(mikron), {"path_mode": "G64", "settle_ms": 0.0})
+    g64 = get_effect("reset_mode").apply(make_base(mikron), {"path_mode": "G64", "settle_ms": 0.0,
+                                                          "corner_jump_mm_s": 30.0})
     fixed = ModelCache(path, path_key=interpretation_key(mikron))
     with pytest.raises(UsageError, match="needs the program"):
         fixed.motion(g64)
@@ -122,7 +125,8 @@ def test_model_cache_interprets_again_for_another_reset_mode(mikron):
     cache = ModelCache(path, reinterpret=reinterpret, path_key=interpretation_key(mikron))
     g60 = cache.motion(make_base(mikron))
     cont = cache.motion(g64)
-    cache.motion(get_effect("reset_mode").apply(make_base(mikron), {"path_mode": "G64", "settle_ms": 5.0}))
+    cache.motion(get_effect("reset_mode").apply(make_base(mikron), {"path_mode": "G64", "settle_ms": 5.0,
+                                                                  "corner_jump_mm_s": 30.0}))
     assert calls == [64]                                      # interpreted once per reset mode
     # the collinear junction X20: G60 stops there, G64 keeps the feed (10 mm/s)
     assert g60.v_junction_mm_s[3] == 0.0 and cont.v_junction_mm_s[3] == pytest.approx(10.0)
@@ -143,8 +147,10 @@ class _Gap:
 
 
 class _ToyEvaluator:
-    """A gap that prefers G60 with no settle on its own, but G64 with a corner jump of 2 mm/s
-    and a rapid override of 10 % together (like the KIT recording)."""
+    """A gap shaped like the KIT recording's: the rapid ran at 10 % override; exact stop with
+    no settle fits better than continuous path on the nominal ramps, but continuous path with
+    a 12.5 ms settle, a 2 mm/s corner jump and slow X/Y ramps (0.3 m/s^2) fits best; lowering
+    the acceleration under exact stop only makes it worse."""
 
     def __init__(self):
         self.n_evals = 0
@@ -152,12 +158,14 @@ class _ToyEvaluator:
     def evaluate(self, model):
         self.n_evals += 1
         ncu = model.machine.ncu
-        jump = get_effect("corner_jump").current(model)["corner_jump_mm_s"]
+        a_x = float(model.machine.max_accel_mm_s2[0])
         g = 10.0 * abs(math.log(ncu.rapid_override / 0.1)) + 0.05
         if ncu.reset_path_mode == 60:
-            g += 1.0 + 0.02 * ncu.exact_stop_fine_settle_s * 1e3
+            g += 1.0 + 0.02 * ncu.exact_stop_fine_settle_s * 1e3 + 0.3 * abs(math.log(a_x / 2500.0))
         else:
-            g += 0.5 * abs(math.log(jump / 2.0)) + 0.02 * abs(ncu.exact_stop_fine_settle_s * 1e3 - 12.5)
+            jump = get_effect("corner_jump").current(model)["corner_jump_mm_s"]
+            g += (0.5 * abs(math.log(jump / 2.0)) + 0.02 * abs(ncu.exact_stop_fine_settle_s * 1e3 - 12.5)
+                  + 2.0 * abs(math.log(a_x / 300.0)))
         return _Gap(g)
 
 
@@ -165,16 +173,18 @@ def test_forward_selection_keeps_the_continuous_path_hypothesis(mikron):
     ev = _ToyEvaluator()
     base = make_base(mikron)
     before = ev.evaluate(base)
-    names = ("rapid_override", "reset_mode", "corner_jump")
+    names = ("rapid_override", "reset_mode", "axis_accel")
     fits = rank_fits([fit_effect(ev, base, n, gap_before=before) for n in names])
     assert fits[0].effect == "rapid_override"
     single = next(f for f in fits if f.effect == "reset_mode")
     assert single.params["path_mode"] == "G60"                  # alone, exact stop fits better
-    comb = forward_select(ev, fits, before)
+    comb = forward_select(ev, fits, before, base)
     assert set(comb.effects) == set(names)
     assert comb.params["path_mode"] == "G64"
     assert comb.params["corner_jump_mm_s"] == pytest.approx(2.0, rel=0.01)
     assert comb.params["settle_ms"] == pytest.approx(12.5, abs=0.1)
+    assert comb.params["xy_accel_m_s2"] == pytest.approx(0.3, rel=0.01)
+    assert comb.gap_after.gap == pytest.approx(0.05, abs=0.01)
 
 
 # ---------------------------------------------------------------------------------------------

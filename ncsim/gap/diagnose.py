@@ -6,7 +6,7 @@ Pipeline (:func:`diagnose`):
 1. **Base model** (``effects.make_base``): e.g. ``full`` or ``axis-only``; its *model trace* is
    the planned motion sampled on a uniform grid (``MODEL_DT_S``, 2 ms; held at rest for
    ``SETTLE_S`` after the end so that lagging axes can settle, and preceded by ``LEAD_S`` of
-   rest) and passed through the model's
+   rest when the recorder's filter acts) and passed through the model's
    trace effects (servo, structure).
 2. **Alignment**: the recording is registered on the program once (``ncsim.gap.register``:
    the blocks and pass it covers, the work offset, each sample's place on the path), then, per
@@ -85,7 +85,8 @@ from ncsim.units import mm_to_um, s_to_ms
 
 MODEL_DT_S = 2e-3            # model trace grid (chord error a dt^2/8: 0.5 um at 1 m/s^2)
 SETTLE_S = 0.5               # model held at rest after the end (lagging axes settle)
-LEAD_S = 0.1                 # model traces start with this much rest (before the motion)
+WINDOW_MARGIN_S = 0.5        # model traces sampled this much beyond what a recording covers
+LEAD_S = 0.1                 # rest before the motion of a model trace through the recorder
 COMBINE_MIN_GAIN = 0.05      # combined model: an effect must shrink the gap by 5 % more
 
 
@@ -97,7 +98,7 @@ COMBINE_MIN_GAIN = 0.05      # combined model: an effect must shrink the gap by 
 class ModelTrace:
     """A model's predicted positions on a uniform grid, with the planner's labels."""
 
-    t_s: np.ndarray          # (n,) uniform grid from -LEAD_S (the motion starts at 0)
+    t_s: np.ndarray          # (n,) uniform grid (the motion starts at 0; from -LEAD_S with a recorder)
     pos_mm: np.ndarray       # (n, 3) set point after the model's trace effects
     s_mm: np.ndarray         # (n,) path length of the set point (non-decreasing)
     block: np.ndarray        # (n,) block of the set point
@@ -122,10 +123,15 @@ class ModelCache:
     ``path`` was interpreted on a machine with interpretation key ``path_key``
     (:func:`interpretation_key`; None: any). A model whose machine has another key is planned
     on ``reinterpret(machine)`` (the program interpreted again, cached); without
-    ``reinterpret`` such a model is a :class:`~ncsim.errors.UsageError`."""
+    ``reinterpret`` such a model is a :class:`~ncsim.errors.UsageError`.
+
+    ``s_window_mm = (lo, hi)``: only the stretch of the motion from ``WINDOW_MARGIN_S`` before
+    it reaches path length ``lo`` to as long after ``hi`` is sampled (a recording that covers
+    part of a long program needs no more; sampling is most of an evaluation's cost)."""
 
     def __init__(self, path: Path, dt_s: float = MODEL_DT_S, settle_s: float = SETTLE_S,
-                 max_plans: int = 64, *, reinterpret=None, path_key: tuple | None = None):
+                 max_plans: int = 64, *, reinterpret=None, path_key: tuple | None = None,
+                 s_window_mm: tuple | None = None):
         self.path = path
         self.dt_s = dt_s
         self.settle_s = settle_s
@@ -134,6 +140,7 @@ class ModelCache:
         self.max_plans = max_plans
         self.reinterpret = reinterpret
         self._paths: dict = {} if path_key is None else {path_key: path}
+        self.s_window_mm = s_window_mm
 
     def path_for(self, machine: MachineSpec) -> Path:
         """The path the model's machine makes of the program (see the class docstring)."""
@@ -174,6 +181,11 @@ class ModelCache:
         total = motion.total_time_s
         n = int(math.ceil((total + self.settle_s) / self.dt_s)) + 1
         t = np.arange(n) * self.dt_s
+        if self.s_window_mm is not None:
+            # piece start times against piece start lengths: monotone, close enough for a
+            # window with WINDOW_MARGIN_S to spare
+            t_lo, t_hi = np.interp(self.s_window_mm, motion.piece_s_mm, motion.piece_t_s[:-1])
+            t = t[(t >= t_lo - WINDOW_MARGIN_S) & (t <= t_hi + WINDOW_MARGIN_S + self.settle_s)]
         tr = sample_motion(motion, t_s=np.minimum(t, total))
         if len(self._plans) >= self.max_plans:
             self._plans.pop(next(iter(self._plans)))
@@ -182,11 +194,12 @@ class ModelCache:
 
     def trace(self, model: Model) -> ModelTrace:
         t, tr, total, _ = self.setpoint(model)
-        # LEAD_S of rest before the start: a centred filter (the recorder) reaches before it,
-        # and a measured trace that starts at rest meets a model that does too
-        n_lead = int(round(LEAD_S / self.dt_s))
-        tr = tr.select(np.r_[np.zeros(n_lead, dtype=np.int64), np.arange(len(t))])
-        t = np.r_[t[0] - self.dt_s * np.arange(n_lead, 0, -1), t]
+        if model.post_values("recorder") is not None and t[0] == 0.0:
+            # LEAD_S of rest before the start: the recorder's centred filter reaches before
+            # it, and a measured trace that starts at rest must meet a model that does too
+            n_lead = int(round(LEAD_S / self.dt_s))
+            tr = tr.select(np.r_[np.zeros(n_lead, dtype=np.int64), np.arange(len(t))])
+            t = np.r_[t[0] - self.dt_s * np.arange(n_lead, 0, -1), t]
         pos = tr.pos_mm
         if model.post:
             pos = apply_trace_effects(model, tr, t, pos)
@@ -224,7 +237,9 @@ class Evaluator:
             raise UsageError(f"{measured.source}: the registration has {len(registration.s_mm)} "
                              f"samples, the trace {len(measured)}")
         self.registration = registration
-        self.cache = ModelCache(path, dt_s=dt_s, reinterpret=reinterpret, path_key=path_key)
+        covered = registration.s_mm
+        self.cache = ModelCache(path, dt_s=dt_s, reinterpret=reinterpret, path_key=path_key,
+                                s_window_mm=(float(np.min(covered)), float(np.max(covered))))
         seg = np.unique(registration.segment)
         feeds = path.feed_mm_s[seg][~path.rapid[seg] & np.isfinite(path.feed_mm_s[seg])]
         cap = SLOWEST_FEED_SHARE * float(feeds.min()) if feeds.size else math.inf
@@ -444,68 +459,152 @@ def indistinguishable(fits: Sequence[EffectFit]) -> list[str]:
     return [f.effect for f in fits[1:] if f.gap_after.gap <= best * (1.0 + TIE_SHARE)]
 
 
-def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, *,
-                   max_effects: int = 5, n_full: int = 2, width: int = 1) -> EffectFit | None:
-    """Combined model by forward selection with a small beam: start from the best single fit;
-    at each step, for each of the ``width`` best models so far, screen every candidate it
-    lacks on top of it with a coarse fit (grids only, :func:`~ncsim.gap.fit.fit_values`), fit
-    the ``n_full`` best and every choice of a discrete parameter fully, and keep the children that shrink their parent's gap by at
-    least ``COMBINE_MIN_GAIN``; the ``width`` best children (one per set of effects) go on.
-    Unlike a greedy pass in the order of the single fits, an effect that only shows once
-    another is in the model (a G64 corner velocity once the machine runs continuous path) is
-    found, and a first choice that fits a little better (exact stop with no settle against
-    continuous path) does not lock the others out. The best model seen is returned."""
+def combine(evaluator, fits: Sequence[EffectFit], gap_before,
+            max_effects: int = 4, max_tries: int = 4) -> EffectFit | None:
+    """Greedy combined model: start from the first fit (the best single effect); try the next
+    ones that shrank the gap on their own (at most ``max_tries``), each re-fitted on top of the
+    current model with the earlier effects held, and keep those that shrink the current gap by
+    at least ``COMBINE_MIN_GAIN`` of its value. ``fits`` gives the order of the trials."""
     if not fits or fits[0].shrink_percent <= 0:
         return None
     t0 = time.perf_counter()
     n0 = evaluator.n_evals
-    names = [f.effect for f in fits]
-    # (fit of the current model, chosen effects, their parameters)
+    current = fits[0]
+    chosen = [fits[0].effect]
+    params = {fits[0].effect: fits[0].params}
+    tried = 0
+    for f in fits[1:]:
+        if len(chosen) >= max_effects or tried >= max_tries or f.shrink_percent <= 0.5:
+            continue
+        tried += 1
+        trial = fit_effect(evaluator, current.model, f.effect, gap_before=current.gap_after)
+        if trial.gap_after.gap < current.gap_after.gap * (1.0 - COMBINE_MIN_GAIN):
+            current = trial
+            chosen.append(f.effect)
+            params[f.effect] = trial.params
+    if len(chosen) == 1:
+        return None
+    return EffectFit(effect="+".join(chosen), params={k: v for e in chosen for k, v in params[e].items()},
+                     model=current.model, gap_before=gap_before, gap_after=current.gap_after,
+                     added=True, n_evals=evaluator.n_evals - n0,
+                     seconds=time.perf_counter() - t0, effects=tuple(chosen))
+
+
+def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, base: Model, *,
+                   max_effects: int = 4, n_full: int = 2, width: int = 1,
+                   n_partners: int = 1) -> EffectFit | None:
+    """Combined model by forward selection with a small beam: start from the best single fit;
+    at each step, for each model kept so far, screen every candidate it lacks on top of it
+    with a coarse fit (grids only, :func:`~ncsim.gap.fit.fit_values`), fit the ``n_full`` best
+    and every choice of a discrete parameter fully, re-fit the effects already in
+    (:func:`_backfit`), and keep the children that shrink their parent's gap by at least
+    ``COMBINE_MIN_GAIN``. A discrete choice that does not pay off alone is tried once more
+    together with the ``n_partners`` best other candidates: continuous path against exact
+    stop only shows once the ramps that shape the corners are fitted too. The ``width`` best
+    children go on, and with them the best child of every structural hypothesis (the discrete
+    choices it makes, e.g. G60 or G64), so that a first choice that fits a little better does
+    not lock the others out. Candidates whose parameters changed nothing at all in their
+    single fit are left out (they do not act on this trace), unless they make a discrete choice.
+    The best model seen is returned, without effects that no longer matter in it
+    (:func:`_prune`, against the ``base`` model)."""
+    if not fits or fits[0].shrink_percent <= 0:
+        return None
+    t0 = time.perf_counter()
+    n0 = evaluator.n_evals
+    names = [f.effect for f in fits
+             if f.sensitive or any(p.kind == "choice" for p in get_effect(f.effect).params)]
+    # a node: (fit of its model, the effects in it, their parameters)
     beam = [(fits[0], (fits[0].effect,), {fits[0].effect: fits[0].params})]
     best = beam[0]
     for _ in range(max_effects - 1):
         children: dict = {}
-        for current, chosen, params in beam:
-            # each choice of a discrete parameter is its own hypothesis (G60 or G64 ...)
-            variants = [(n, v) for n in names if n not in chosen for v in choice_variants(n)]
-            if not variants:
+
+        def keep(node, parent_gap):
+            fit, chosen, params = node
+            if fit.gap_after.gap >= parent_gap * (1.0 - COMBINE_MIN_GAIN):
+                return
+            key = frozenset(_labels(chosen, params))
+            if key not in children or fit.gap_after.gap < children[key][0].gap_after.gap:
+                children[key] = node
+
+        for node in beam:
+            current, chosen, params = node
+            if len(chosen) >= max_effects:
                 continue
-            screen = [(fit_effect(evaluator, current.model, n, gap_before=current.gap_after,
-                                  coarse=True, fixed=v), v) for n, v in variants]
-            screen.sort(key=lambda fv: fv[0].gap_after.gap)
-            # the n_full best, and every structural hypothesis (a coarse grid may miss the
-            # settle time that makes continuous path pay off)
-            chosen_fits = screen[:n_full] + [fv for fv in screen[n_full:] if fv[1]]
-            for f, v in chosen_fits:
-                trial = fit_effect(evaluator, current.model, f.effect,
-                                   gap_before=current.gap_after, fixed=v)
-                if trial.gap_after.gap >= current.gap_after.gap * (1.0 - COMBINE_MIN_GAIN):
-                    continue
-                trial, params = _backfit(evaluator, trial, chosen, params, current.gap_after)
-                key = frozenset(_labels(chosen, params) | {_label(trial.effect, trial.params)})
-                if key not in children or trial.gap_after.gap < children[key][0].gap_after.gap:
-                    children[key] = (trial, chosen + (trial.effect,), params)
+            variants = [(n, v) for n in names if n not in chosen for v in choice_variants(n)]
+            screen = sorted(((fit_effect(evaluator, current.model, n, gap_before=current.gap_after,
+                                         coarse=True, fixed=v), v) for n, v in variants),
+                            key=lambda fv: fv[0].gap_after.gap)
+            plain = [f.effect for f, v in screen if not v][:n_partners]
+            for f, v in screen[:n_full] + [fv for fv in screen[n_full:] if fv[1]]:
+                child = _extend(evaluator, node, f.effect, v)
+                keep(child, current.gap_after.gap)
+                if v and child[0].gap_after.gap >= current.gap_after.gap * (1.0 - COMBINE_MIN_GAIN) \
+                        and len(chosen) + 2 <= max_effects:
+                    for partner in plain:
+                        if partner != f.effect:
+                            keep(_extend(evaluator, child, partner, {}), current.gap_after.gap)
         if not children:
             break
-        ranked = sorted(children.values(), key=lambda node: node[0].gap_after.gap)
+        ranked = sorted(children.values(), key=lambda n: n[0].gap_after.gap)
         beam = ranked[:width]
-        # keep every structural hypothesis alive: the best node of each set of discrete
-        # choices (G60 or G64, SOFT or BRISK) goes on even when others fit better so far
         seen = {_structure(n[1], n[2]) for n in beam}
-        for node in ranked[width:]:
-            sig = _structure(node[1], node[2])
+        for n in ranked[width:]:
+            sig = _structure(n[1], n[2])
             if sig not in seen:
                 seen.add(sig)
-                beam.append(node)
+                beam.append(n)
+        # only the children that go on are re-fitted as a whole (the costly part)
+        beam = sorted((_backfit_node(evaluator, n) for n in beam), key=lambda n: n[0].gap_after.gap)
         if beam[0][0].gap_after.gap < best[0].gap_after.gap:
             best = beam[0]
-    fit, chosen, params = best
+    fit, chosen, params = _prune(evaluator, best, base)
     if len(chosen) == 1:
         return None
     return EffectFit(effect="+".join(chosen), params={k: v for e in chosen for k, v in params[e].items()},
                      model=fit.model, gap_before=gap_before, gap_after=fit.gap_after,
                      added=True, n_evals=evaluator.n_evals - n0,
                      seconds=time.perf_counter() - t0, effects=tuple(chosen))
+
+
+def _prune(evaluator, node, base: Model):
+    """Drop the effects of a combined model that no longer matter in it: back-fitting can
+    leave one at its base value, or make it redundant. An effect goes when the model without
+    it (its parameters back at their values in ``base``, or a trace effect removed) is within
+    ``COMBINE_MIN_GAIN`` of the model's gap."""
+    fit, chosen, params = node
+    for name in list(chosen):
+        if len(chosen) == 1:
+            break
+        e = get_effect(name)
+        if e.kind == "trace" and not e.is_active(base):
+            without = e.remove(fit.model)
+        elif e.kind == "planner" and not e.is_active(base) and e.option is not None:
+            without = e.remove(fit.model)
+        else:
+            without = e.apply(fit.model, e.check(e.current(base)))
+        g = evaluator.evaluate(without)
+        if g.gap <= fit.gap_after.gap * (1.0 + COMBINE_MIN_GAIN):
+            fit = replace(fit, model=without, gap_after=g)
+            chosen = tuple(c for c in chosen if c != name)
+            params = {k: v for k, v in params.items() if k != name}
+    return fit, chosen, params
+
+
+def _extend(evaluator, node, effect: str, fixed: Mapping):
+    """The node with ``effect`` added (its discrete choices ``fixed``), fitted, and the
+    effects already in re-fitted."""
+    current, chosen, params = node
+    trial = fit_effect(evaluator, current.model, effect, gap_before=current.gap_after, fixed=fixed,
+                       polish=False)
+    return trial, chosen + (effect,), {**params, effect: trial.params}
+
+
+def _backfit_node(evaluator, node):
+    """A node with all but its last effect re-fitted on top of the others (:func:`_backfit`)."""
+    fit, chosen, params = node
+    fit, params = _backfit(evaluator, fit, chosen[:-1], params, fit.gap_before)
+    return fit, chosen, params
 
 
 def _backfit(evaluator, trial: EffectFit, chosen, params, gap_before):
@@ -516,9 +615,11 @@ def _backfit(evaluator, trial: EffectFit, chosen, params, gap_before):
     parameters."""
     params = {**params, trial.effect: trial.params}
     current = trial
+    gap_before = trial.gap_before if gap_before is None else gap_before
     for name in chosen:
         fixed = {p.name: params[name][p.name] for p in get_effect(name).params if p.kind == "choice"}
-        refit = fit_effect(evaluator, current.model, name, gap_before=gap_before, fixed=fixed)
+        refit = fit_effect(evaluator, current.model, name, gap_before=gap_before, fixed=fixed,
+                           polish=False)
         if refit.gap_after.gap < current.gap_after.gap:
             current = refit
             params[name] = refit.params
@@ -583,7 +684,7 @@ def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base:
     fits = rank_fits(fits)
     if do_combine and progress is not None:
         progress("combine")
-    comb = forward_select(ev, fits, before) if do_combine else None
+    comb = forward_select(ev, fits, before, base_model) if do_combine else None
     ties = indistinguishable(fits)
     if ties:
         notes.append(f"{fits[0].effect}: on this trace as good as " + ", ".join(ties)

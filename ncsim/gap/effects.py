@@ -485,7 +485,8 @@ class ResetPathMode(MachineValue):
         ncu = model.machine.ncu
         mode = path_mode_name(ncu.reset_path_mode)
         return {"path_mode": mode if mode in RESET_MODE_CHOICES else "G64",
-                "settle_ms": s_to_ms(ncu.exact_stop_fine_settle_s)}
+                "settle_ms": s_to_ms(ncu.exact_stop_fine_settle_s),
+                **EFFECTS["corner_jump"].current(model)}
 
     def apply_planner(self, machine, options, v):
         mode = PATH_MODES[v["path_mode"]]
@@ -494,7 +495,9 @@ class ResetPathMode(MachineValue):
         m = machine.with_ncu(reset_path_mode=mode,
                              exact_stop_fine_settle_s=ms_to_s(v["settle_ms"]),
                              exact_pos_mode_g0_to_g1=1)
-        return m, options
+        # the corner velocity is part of the continuous-path hypothesis (it changes nothing
+        # under exact stop, where every corner stops)
+        return EFFECTS["corner_jump"].apply_planner(m, options, v)
 
 
 @dataclass(frozen=True)
@@ -612,11 +615,15 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
         "axes are inside the exact-stop window (G601: MD36010 $MA_STOP_LIMIT_FINE), G64 keeps "
         "the path speed across tangent junctions and slows at corners only (G64 corner law). "
         "Under G64 a G0<->G1 change still stops in the window (MD20552 "
-        "$MC_EXACT_POS_MODE_G0_TO_G1 = 1). settle_ms is the time spent reaching the window.",
+        "$MC_EXACT_POS_MODE_G0_TO_G1 = 1). settle_ms is the time spent reaching the window. "
+        "A continuous-path hypothesis is only whole with its corner velocity, so the G64 axis "
+        "velocity jump (corner_jump) is fitted with it; it changes nothing under G60.",
         (Param("path_mode", "", 0, 0, "group-10 reset value", kind="choice",
                choices=RESET_MODE_CHOICES),
          Param("settle_ms", "ms", 0.0, 100.0, "time standing in the exact-stop window after the "
-               "set point stops (machine file: exact_stop_fine_settle_ms)", log=False))),
+               "set point stops (machine file: exact_stop_fine_settle_ms)", log=False),
+         Param("corner_jump_mm_s", "mm/s", 0.1, 200.0, "velocity jump the X axis may make at a "
+               "G64 corner (as corner_jump)"))),
     CornerJump(
         "corner_jump", "corner velocity in continuous-path mode (G64 axis velocity jump)",
         "At a G64 corner each axis may jump in velocity by A_i (MD32310 $MA_MAX_ACCEL_OVL_FACTOR "

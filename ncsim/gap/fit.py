@@ -42,6 +42,7 @@ class EffectFit:
     n_evals: int = 0
     seconds: float = 0.0
     effects: tuple[str, ...] = ()   # for a combined model: the effects in it
+    sensitive: bool = True          # some parameter value changed the gap (False: inert here)
 
     @property
     def shrink_percent(self) -> float:
@@ -160,11 +161,12 @@ def _int_search(objective, p, x0: int | None, coarse: bool = False):
 
 
 def fit_values(objective, params: Sequence, start: Mapping[str, object], free: Iterable[str],
-               coarse: bool = False):
+               coarse: bool = False, polish: bool = True):
     """Minimise ``objective(values)`` over the ``free`` parameters (others held at
     ``start``). Choices are enumerated; for each, integers are scanned and floats searched one
     at a time (coordinate search, two sweeps when more than one is free). ``coarse``: one sweep
-    of the grids alone, no refinement (a cheap screen of many candidates)."""
+    of the grids alone, no refinement (a cheap screen of many candidates). ``polish``: the
+    Nelder-Mead polish of two or more floats (off: the coordinate search alone)."""
     free = [p for p in params if p.name in set(free)]
     choices = [p for p in free if p.kind == "choice"]
     numeric = [p for p in free if p.kind != "choice"]
@@ -187,7 +189,7 @@ def fit_values(objective, params: Sequence, start: Mapping[str, object], free: I
                     x, f = _float_search(obj1, p, None if x0 is None else float(x0), coarse=coarse)
                 vals[p.name] = x
         floats = [p for p in numeric if p.kind == "float"]
-        if len(floats) >= 2 and not coarse:
+        if len(floats) >= 2 and not coarse and polish:
             vals, f = _polish(objective, floats, vals)
         if f is None:
             f = objective(vals)
@@ -240,13 +242,14 @@ def free_params(effect, command: bool) -> list[str]:
 
 def fit_effect(evaluator, base: Model, effect_name: str, *,
                gap_before=None, command: bool = False, coarse: bool = False,
-               fixed: Mapping[str, object] | None = None) -> EffectFit:
+               fixed: Mapping[str, object] | None = None, polish: bool = True) -> EffectFit:
     """Add (or re-fit) one effect on ``base`` and fit its parameters to minimise the gap.
 
     ``evaluator`` is anything with ``evaluate(model)`` returning an object with a ``gap``
     (``diagnose.Evaluator`` for traces, ``published.SummaryEvaluator`` for published values)
-    and an ``n_evals`` counter. ``coarse``: grids only (see :func:`fit_values`). ``fixed``:
-    parameters held at given values (e.g. one choice of a discrete parameter)."""
+    and an ``n_evals`` counter. ``coarse``: grids only, ``polish``: with the Nelder-Mead
+    polish (see :func:`fit_values`). ``fixed``: parameters held at given values (e.g. one
+    choice of a discrete parameter)."""
     t0 = time.perf_counter()
     effect = get_effect(effect_name)
     n0 = evaluator.n_evals
@@ -262,9 +265,11 @@ def fit_effect(evaluator, base: Model, effect_name: str, *,
         return cache[key]
 
     free = [n for n in free_params(effect, command) if n not in (fixed or {})]
-    values, _ = fit_values(objective, effect.params, start, free, coarse=coarse)
+    values, _ = fit_values(objective, effect.params, start, free, coarse=coarse, polish=polish)
     model = effect.apply(base, values)
     after = evaluator.evaluate(model)
+    seen = np.array(list(cache.values()))
     return EffectFit(effect=effect_name, params=effect.check(values), model=model,
                      gap_before=gap_before, gap_after=after, added=not effect.is_active(base),
-                     n_evals=evaluator.n_evals - n0, seconds=time.perf_counter() - t0)
+                     n_evals=evaluator.n_evals - n0, seconds=time.perf_counter() - t0,
+                     sensitive=bool(seen.size and np.ptp(seen) > 1e-12 * max(float(np.max(seen)), 1e-300)))
