@@ -50,6 +50,8 @@ sys.path.insert(0, str(REPO))
 
 from ncsim.gap.effects import COMMAND_EFFECTS, EFFECTS  # noqa: E402
 from ncsim.gap.diagnose import diagnose  # noqa: E402
+from ncsim.errors import MeasuredDataError  # noqa: E402
+from ncsim.gap.pipeline import register_trace  # noqa: E402
 from ncsim.gap.truth.cases import CASE_KINDS, draw_case, truth_trace  # noqa: E402
 from ncsim.gap.truth.independent import (CONDITIONS, INDEPENDENT_KINDS,  # noqa: E402
                                          draw_independent_case, independent_trace, start_machine)
@@ -131,11 +133,25 @@ def run_independent_case(case) -> dict:
     t1 = time.perf_counter()
     machine = start_machine(nominal, case)
     path = interpret_file(program, machine).path
-    d = diagnose(path, machine, measured, base=case.base, candidates=COMMAND_EFFECTS,
+    # as `ncsim gap` does with a recorded command: register it on the program (offset and
+    # covered stretch fitted), then the planner part. A recording of one pass that looks like
+    # another is refused as ambiguous: the user then gives the work offset (--work-offset or a
+    # setup file), as here; the case records that it needed it
+    try:
+        reg = register_trace(measured, path, machine, {})
+        offset_given = False
+    except MeasuredDataError as exc:
+        if "ambiguous" not in str(exc):
+            raise
+        reg = register_trace(measured, path, machine, {"G54": case.offset_mm})
+        offset_given = True
+    d = diagnose(path, machine, measured.command(), base=case.base, candidates=COMMAND_EFFECTS,
                  do_combine=False, localisation=False, reinterpret=_reinterpret(program),
-                 recorder_window_ms=case.known_recorder_ms)
+                 recorder_window_ms=case.known_recorder_ms, registration=reg)
     t2 = time.perf_counter()
-    return _row(case, measured, d, t1 - t0, t2 - t1, "independent")
+    return {**_row(case, measured, d, t1 - t0, t2 - t1, "independent"),
+            "offset_given": offset_given, "registration": reg.status,
+            "offset_error_um": float(1e3 * np.max(np.abs(np.asarray(reg.offset_mm) - case.offset_mm)))}
 
 
 def _row(case, measured, d, truth_s: float, diagnosis_s: float, suite: str) -> dict:

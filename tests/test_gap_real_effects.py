@@ -17,7 +17,7 @@ import pytest
 from ncsim.errors import UsageError
 from ncsim.gap.diagnose import ModelCache, forward_select, interpretation_key, rank_fits
 from ncsim.gap.effects import (corner_jump_factor, corrected_machine, get_effect, make_base,
-                               moving_average_mm)
+                               sample_mean_mm)
 from ncsim.gap.fit import fit_effect
 from ncsim.gap.transitions import junction_loss_s, time_at_length_s
 from ncsim.gap.truth.plain import (PlainMachine, plan_plain, ramp_distance_mm, reachable_mm_s,
@@ -32,19 +32,22 @@ SQUARE = "G90 G17 G94\nG0 X0 Y0 Z2\nG1 Z0 F600\nG1 X20\nG1 X40\nG1 Y20\nG1 X0\nG
 # Physics of the new effects
 # ---------------------------------------------------------------------------------------------
 
-def test_moving_average_is_a_centred_box():
+def test_recorder_mean_of_n_samples():
     t = np.arange(0.0, 2.0, 5e-4)
-    for f_hz, w_s in ((10.0, 0.02), (22.0, 0.02), (50.0, 0.02), (7.0, 0.05)):
+    h = 2e-3
+    for f_hz, n in ((10.0, 10), (22.0, 10), (50.0, 10), (7.0, 7)):
         x = np.column_stack([np.sin(2 * np.pi * f_hz * t), np.zeros_like(t), t])
-        y = moving_average_mm(t, x, w_s)
+        y = sample_mean_mm(t, x, n, h)
         inner = (t > 0.2) & (t < 1.8)
-        gain = abs(np.sinc(f_hz * w_s))                       # sin(pi f w) / (pi f w)
-        # (trapezoid integral on the 0.5 ms grid: errors of order (2 pi f dt)^2 / 12)
+        # the mean of n samples h apart, centred: gain sin(pi f n h) / (n sin(pi f h)), no delay
+        gain = abs(math.sin(math.pi * f_hz * n * h) / (n * math.sin(math.pi * f_hz * h)))
+        # (x linear between the 0.5 ms grid points: errors of order (2 pi f dt)^2 / 8)
         assert np.max(np.abs(y[inner, 0] - gain * x[inner, 0])) < 1e-3, f_hz
-        assert np.allclose(y[inner, 2], t[inner], atol=1e-12)    # a ramp passes unchanged, no delay
-    # before the start the first position is held: a step at t0 is averaged with its rest
+        assert np.allclose(y[inner, 2], t[inner], atol=1e-12)    # a ramp passes unchanged
+    # before the start the first position is held: a constant stays
     step = np.column_stack([np.ones_like(t), np.zeros_like(t), np.zeros_like(t)])
-    assert np.allclose(moving_average_mm(t, step, 0.02)[:, 0], 1.0)
+    assert np.allclose(sample_mean_mm(t, step, 10)[:, 0], 1.0)
+    assert sample_mean_mm(t, step, 1) is not step and np.allclose(sample_mean_mm(t, step, 1), step)
 
 
 def test_corner_jump_factor_is_md32310_minus_one():
@@ -93,7 +96,7 @@ def test_corrected_machine_file_holds_the_fitted_settings(mikron):
                          ("reset_mode", {"path_mode": "G64", "settle_ms": 12.5,
                                          "corner_jump_mm_s": 1.5}),
                          ("axis_accel", {"xy_accel_m_s2": 0.3, "z_accel_m_s2": 1.4}),
-                         ("recorder", {"window_ms": 20.0})):
+                         ("recorder", {"samples": 10})):
         m = get_effect(name).apply(m, values)
     text = dump_machine_toml(corrected_machine(m))
     for line in ('reset_path_mode = "G64"', "exact_pos_mode_g0_to_g1 = 1",
@@ -204,8 +207,9 @@ def test_junction_loss_of_a_brisk_stop_is_v_over_a_plus_the_settle():
                                             s_c + v * v / (2 * a) + v * (t - t2 - v / a)))))
     loss = junction_loss_s(t, s, s_c)
     assert loss == pytest.approx(v / a + settle, abs=1e-6)
-    # a centred 20 ms moving average leaves the straight stretches, so the loss, unchanged
-    box = moving_average_mm(t, np.column_stack([s, 0 * s, 0 * s]), 0.02)[:, 0]
+    # a recorder's centred mean of 10 samples (20 ms) leaves the straight stretches, so the
+    # loss, unchanged
+    box = sample_mean_mm(t, np.column_stack([s, 0 * s, 0 * s]), 10)[:, 0]
     assert junction_loss_s(t, box, s_c) == pytest.approx(v / a + settle, abs=1e-6)
     assert time_at_length_s(t, s, s_c) == pytest.approx(t1, abs=1e-3)
 

@@ -66,7 +66,8 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from ncsim.gap.align import AlignPhase, Alignment, align
-from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, REINTERPRETING, TRACE_EFFECTS, Model,
+from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, RECORDER_RAW_PERIOD_S, REINTERPRETING,
+                               TRACE_EFFECTS, Model,
                                apply_trace_effects, corrected_machine, get_effect, make_base,
                                model_description)
 from ncsim.errors import UsageError
@@ -658,11 +659,13 @@ def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base:
     again on another machine (``path`` is the program interpreted on ``machine``); without it
     the effects that change the interpretation (``reset_mode``) are left out of the defaults.
     ``recorder_window_ms``: the recorder's moving average when it is known (e.g. 20 ms for 10
-    samples at 500 Hz): the base model is compared after it, and ``recorder`` re-fits it."""
+    samples at 500 Hz, ``effects.RECORDER_RAW_PERIOD_S``): the base model is compared after
+    it, and ``recorder`` re-fits it."""
     t0 = time.perf_counter()
     base_model = make_base(machine, base)
     if recorder_window_ms is not None:
-        base_model = get_effect("recorder").apply(base_model, {"window_ms": recorder_window_ms})
+        base_model = get_effect("recorder").apply(
+            base_model, {"samples": round(recorder_window_ms / s_to_ms(RECORDER_RAW_PERIOD_S))})
     ev = Evaluator(path, measured, align_options=align_options, registration=registration,
                    reinterpret=reinterpret, path_key=interpretation_key(machine))
     before, al, mt = ev.evaluate(base_model, full=True)

@@ -189,34 +189,29 @@ def delayed_mm(t_s: np.ndarray, pos_mm: np.ndarray, delay_s: float) -> np.ndarra
     return np.column_stack([np.interp(t - delay_s, t, p[:, k]) for k in range(p.shape[1])])
 
 
-def moving_average_mm(t_s: np.ndarray, pos_mm: np.ndarray, window_s: float) -> np.ndarray:
-    """The recorder's centred moving average of width ``w``:
-    ``y(t) = (1/w) integral_{t-w/2}^{t+w/2} x(tau) dtau``, what a recorder that averages
-    ``N`` raw samples of period ``h`` (``w = N h``, e.g. 10 at 500 Hz = 20 ms) and stamps the
-    window's mean time writes. Zero group delay; gain ``|sinc(f w)|``, -3 dB at
-    ``0.443 / w`` (22 Hz for 20 ms), first null at ``1 / w``.
+#: the raw sample period of the recorder's stream (an 840D trace or Edge capture at 500 Hz)
+RECORDER_RAW_PERIOD_S = 2e-3
 
-    Computed from the cumulative trapezoid integral ``I`` of ``x`` on the (uniform or not) grid
-    ``t_s``, ``y = (I(t + w/2) - I(t - w/2)) / w`` with ``I`` interpolated linearly and
-    continued with the first and last positions held (the axes rest before and after). The
-    width is continuous, not a whole number of grid steps, so a fit sees a smooth gap."""
+
+def sample_mean_mm(t_s: np.ndarray, pos_mm: np.ndarray, samples: int,
+                   raw_period_s: float = RECORDER_RAW_PERIOD_S) -> np.ndarray:
+    """What a recorder writes that averages ``N`` raw samples of period ``h`` and stamps the
+    mean at the samples' mean time: ``y(t) = (1/N) sum_j x(t + (j - (N - 1)/2) h)``,
+    ``j = 0..N-1`` (10 samples at 500 Hz for KIT's 50 Hz data). Zero group delay; gain
+    ``|sin(pi f N h) / (N sin(pi f h))|``, first null at ``1 / (N h)``. ``x`` between the grid
+    points ``t_s`` is linear, and held at its first and last values outside (the axes rest
+    before and after)."""
     t = np.asarray(t_s, dtype=np.float64)
     x = np.asarray(pos_mm, dtype=np.float64)
-    if window_s <= 0.0 or len(t) < 2:
+    n = int(samples)
+    if n <= 1 or len(t) < 2:
         return x.copy()
-    h = 0.5 * window_s
-    integral = np.zeros_like(x)
-    integral[1:] = np.cumsum(0.5 * (x[1:] + x[:-1]) * np.diff(t)[:, None], axis=0)
-
-    def at(tq):
-        lo = tq < t[0]
-        hi = tq > t[-1]
-        out = np.column_stack([np.interp(tq, t, integral[:, k]) for k in range(x.shape[1])])
-        out[lo] = (tq[lo] - t[0])[:, None] * x[0][None, :]
-        out[hi] = integral[-1][None, :] + (tq[hi] - t[-1])[:, None] * x[-1][None, :]
-        return out
-
-    return (at(t + h) - at(t - h)) / window_s
+    out = np.zeros_like(x)
+    for j in range(n):
+        tq = t + (j - 0.5 * (n - 1)) * raw_period_s
+        for k in range(x.shape[1]):
+            out[:, k] += np.interp(tq, t, x[:, k])
+    return out / n
 
 
 def corner_jump_factor(jump_mm_s: float, accel_mm_s2: float, ipo_cycle_s: float) -> float:
@@ -516,10 +511,10 @@ class CornerJump(MachineValue):
 class Recorder(Effect):
     def current(self, model):
         post = model.post_values(self.name) or {}
-        return {"window_ms": post.get("window_ms", 20.0)}
+        return {"samples": post.get("samples", 10)}
 
     def apply_to_trace(self, trace, t_s, pos_mm, v):
-        return moving_average_mm(t_s, pos_mm, ms_to_s(float(v["window_ms"])))
+        return sample_mean_mm(t_s, pos_mm, int(v["samples"]))
 
 
 RESET_MODE_CHOICES = ("G60", "G64")
@@ -663,13 +658,14 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
         kind="trace", command_only=True),
     Recorder(
         "recorder", "recorder low-pass (moving average before down-sampling)",
-        "The recorder averages the raw samples over a window before it keeps every N-th (a 50 Hz "
-        "trace made from 500 Hz: 10 samples, 20 ms, stamped at the window's mean time), which "
-        "cuts corners and smears ramps by about w/2. The model is compared after the same "
-        "centred moving average. A delay of the recorded channel against the NC clock is the "
-        "alignment's clock offset (and between command and actual, servo_delay).",
-        (Param("window_ms", "ms", 0.5, 100.0, "w, the averaging window (N raw samples x their "
-               "period)"),),
+        "The recorder averages N raw samples before it keeps one (a 50 Hz trace made from "
+        "500 Hz: 10 samples, 20 ms, stamped at their mean time), which cuts corners and smears "
+        "ramps by about N h / 2. The model is compared after the same average of its samples "
+        "h = 2 ms apart (the 840D trace's 500 Hz). A delay of the recorded channel against the "
+        "NC clock is the alignment's clock offset (and between command and actual, "
+        "servo_delay).",
+        (Param("samples", "", 1, 64, "N, the raw samples averaged (window N x 2 ms)",
+               kind="int"),),
         kind="trace"),
 )}
 

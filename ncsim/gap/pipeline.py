@@ -154,7 +154,7 @@ def _machine_file_notes(name: str, params: Mapping) -> list[str]:
     if name == "servo_lag" and float(params.get("ffw_weight", 0.0)) > 0:
         return [f"servo_lag ffw_weight {float(params['ffw_weight']):.3g}: no machine-file key"]
     if name == "recorder":
-        return [f"recorder window {float(params['window_ms']):.3g} ms: the recorder's filter, "
+        return [f"recorder: a mean of {int(params['samples'])} raw samples, the recorder's filter, "
                 "not the machine's (no machine-file key)"]
     if name in ("rapid_override", "feed_override"):
         return [f"{name}: the operator-panel override of this recording, written as "

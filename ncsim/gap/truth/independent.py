@@ -60,7 +60,7 @@ INDEPENDENT_KINDS: dict[str, IndependentKind] = {k.effect: k for k in (
                                    "z_accel_m_s2": (0.3, 2.0, "log")}),
     IndependentKind("reset_mode", {"settle_ms": (5.0, 40.0, "lin")}, fixed={"path_mode": "G64"}),
     IndependentKind("corner_jump", {"corner_jump_mm_s": (2.0, 25.0, "log")}, g64=True),
-    IndependentKind("recorder", {"window_ms": (10.0, 40.0, "int2")}),
+    IndependentKind("recorder", {"samples": (5, 15, "int")}),
 )}
 
 
@@ -97,8 +97,8 @@ class IndependentCase:
 def _draw(rng, low, high, scale):
     if scale == "log":
         return float(np.exp(rng.uniform(math.log(low), math.log(high))))
-    if scale == "int2":        # a whole number of 2 ms raw samples
-        return float(2 * rng.integers(int(low) // 2, int(high) // 2 + 1))
+    if scale == "int":
+        return int(rng.integers(int(low), int(high) + 1))
     return float(rng.uniform(low, high))
 
 
@@ -195,7 +195,7 @@ def independent_trace(program: str, nominal: MachineSpec, case: IndependentCase)
     else:
         lo, hi = -LEAD_S, total + LEAD_S
     if case.effect == "recorder":
-        n = int(round(case.params["window_ms"] / (RAW_PERIOD_S * 1e3)))
+        n = int(case.params["samples"])
     elif case.condition in ("50hz", "kit"):
         n = KIT_AVERAGE
     else:
@@ -210,5 +210,7 @@ def independent_trace(program: str, nominal: MachineSpec, case: IndependentCase)
     t, pos = t[keep], pos[keep]
     q = um_to_mm(RESOLUTION_UM)
     pos = np.round((pos + np.asarray(case.offset_mm)) / q) * q
-    return MeasuredTrace(t_s=t + 100.0, pos_mm=pos,
+    # the recording holds the commanded positions (as an 840D trace of DES_POS): they are
+    # also its "actual" column, there being no servo in this truth
+    return MeasuredTrace(t_s=t + 100.0, pos_mm=pos, cmd_pos_mm=pos,
                          source=f"<independent case {case.index}: {case.effect}, {case.condition}>")
