@@ -16,7 +16,8 @@ import pytest
 
 from ncsim.errors import UsageError
 from ncsim.gap.diagnose import ModelCache, forward_select, interpretation_key, rank_fits
-from ncsim.gap.effects import (corner_jump_factor, corrected_machine, get_effect, make_base,
+from ncsim.gap.effects import (corner_jumps_mm_s, corrected_machine, get_effect, make_base,
+                               overload_factors_for,
                                sample_mean_mm)
 from ncsim.gap.fit import fit_effect
 from ncsim.gap.transitions import junction_loss_s, time_at_length_s
@@ -50,11 +51,11 @@ def test_recorder_mean_of_n_samples():
     assert sample_mean_mm(t, step, 1) is not step and np.allclose(sample_mean_mm(t, step, 1), step)
 
 
-def test_corner_jump_factor_is_md32310_minus_one():
+def test_corner_jump_is_a_times_md32310_minus_one_times_t_ipo():
     # jump = A (MD32310 - 1) t_IPO: 1.7 mm/s at A 2.5 m/s^2 and 12 ms is MD32310 = 1.0567
-    f = corner_jump_factor(1.7, 2500.0, 0.012)
-    assert f == pytest.approx(1.7 / 30.0)
-    assert 1.0 + f == pytest.approx(1.0567, abs=1e-4)
+    f = overload_factors_for([1.7], [2500.0], 0.012)
+    assert f[0] == pytest.approx(1.0 + 1.7 / 30.0) and f[0] == pytest.approx(1.0567, abs=1e-4)
+    assert corner_jumps_mm_s([2500.0, 3000.0], [2.0, 1.5], 0.012) == pytest.approx([30.0, 18.0])
 
 
 def test_machine_value_effects_apply_remove_and_hold_the_corner_jump(mikron):
@@ -103,9 +104,12 @@ def test_corrected_machine_file_holds_the_fitted_settings(mikron):
                  "rapid_override_percent = 10.0", "exact_stop_fine_settle_ms = 12.5",
                  "max_accel_m_s2 = 0.3", "max_accel_m_s2 = 1.4"):
         assert line in text, line
-    # the jump 1.5 mm/s at A_x 0.3 m/s^2 and t_IPO 12 ms
+    # the jump 1.5 mm/s at A_x 0.3 m/s^2 and t_IPO 12 ms: MD32310 = 1 + 1.5 / 3.6
     import tomllib
-    assert tomllib.loads(text)["ncu"]["corner_velocity_jump_factor"] == pytest.approx(1.5 / (300.0 * 0.012))
+    data = tomllib.loads(text)
+    assert data["axes"]["X"]["max_accel_ovl_factor"] == pytest.approx(1.0 + 1.5 / (300.0 * 0.012))
+    # the other axes keep their ratio to X (mikron: equal MD32310, so jumps in proportion to A)
+    assert data["axes"]["Y"]["max_accel_ovl_factor"] == pytest.approx(1.0 + 1.5 / (300.0 * 0.012))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -214,12 +214,29 @@ def sample_mean_mm(t_s: np.ndarray, pos_mm: np.ndarray, samples: int,
     return out / n
 
 
-def corner_jump_factor(jump_mm_s: float, accel_mm_s2: float, ipo_cycle_s: float) -> float:
-    """G64 corner law (840D B1 §"continuous-path mode G64", MD32310): the velocity jump an
-    axis may make at a corner is ``A (MD32310 - 1) t_IPO``; ncsim's machine file holds the
-    factor ``f = MD32310 - 1`` (``corner_velocity_jump_factor``), so ``f = jump / (A t_IPO)``
-    for the X axis (the other axes jump in proportion to their acceleration)."""
-    return jump_mm_s / (accel_mm_s2 * ipo_cycle_s)
+def corner_jumps_mm_s(accel_mm_s2, overload_factor, ipo_cycle_s: float) -> np.ndarray:
+    """G64 corner law (840D B1 "continuous-path mode G64", MD32310 $MA_MAX_ACCEL_OVL_FACTOR):
+    the velocity jump axis i may make at a corner, ``A_i (f_i - 1) t_IPO``."""
+    return (np.asarray(overload_factor, dtype=np.float64) - 1.0) \
+        * np.asarray(accel_mm_s2, dtype=np.float64) * ipo_cycle_s
+
+
+def overload_factors_for(jumps_mm_s, accel_mm_s2, ipo_cycle_s: float) -> np.ndarray:
+    """MD32310 per axis that gives the axis velocity jumps ``jumps_mm_s``: the inverse of
+    :func:`corner_jumps_mm_s`, ``f_i = 1 + jump_i / (A_i t_IPO)``."""
+    return 1.0 + np.asarray(jumps_mm_s, dtype=np.float64) / (
+        np.asarray(accel_mm_s2, dtype=np.float64) * ipo_cycle_s)
+
+
+def _with_jumps(machine: MachineSpec, jumps_mm_s) -> MachineSpec:
+    """The machine with MD32310 set so that the axes jump by ``jumps_mm_s`` at G64 corners."""
+    return machine.with_axes(max_accel_ovl_factor=overload_factors_for(
+        jumps_mm_s, machine.max_accel_mm_s2, machine.ncu.ipo_cycle_s))
+
+
+def _jumps(machine: MachineSpec) -> np.ndarray:
+    return corner_jumps_mm_s(machine.max_accel_mm_s2, machine.max_accel_ovl_factor,
+                             machine.ncu.ipo_cycle_s)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -319,10 +336,8 @@ class CycleTimeLimit(Effect):
         return {"ipo_cycle_ms": s_to_ms(model.machine.ncu.ipo_cycle_s)}
 
     def apply_planner(self, machine, options, v):
-        t_cy = ms_to_s(v["ipo_cycle_ms"])
-        # the G64 corner jump f A t_cy is corner_jump's parameter: keep it
-        f = machine.ncu.corner_velocity_jump_factor * machine.ncu.ipo_cycle_s / t_cy
-        m = machine.with_ncu(ipo_cycle_s=t_cy, corner_velocity_jump_factor=f)
+        # the G64 corner jump A (MD32310 - 1) t_IPO is corner_jump's parameter: keep it
+        m = _with_jumps(machine.with_ncu(ipo_cycle_s=ms_to_s(v["ipo_cycle_ms"])), _jumps(machine))
         return m, replace(options, cycle_time_limit=True)
 
 
@@ -463,10 +478,8 @@ class AxisAccel(MachineValue):
         old = np.array(machine.max_accel_mm_s2)
         x = m_s2_to_mm_s2(v["xy_accel_m_s2"])
         new = np.array([x, x * old[1] / old[0], m_s2_to_mm_s2(v["z_accel_m_s2"])])
-        m = machine.with_axes(max_accel_mm_s2=new)
-        # the G64 corner jump f A t_IPO is fitted on its own (corner_jump): keep it
-        return m.with_ncu(corner_velocity_jump_factor=machine.ncu.corner_velocity_jump_factor
-                          * old[0] / new[0]), options
+        # the G64 corner jump A (MD32310 - 1) t_IPO is fitted on its own (corner_jump): keep it
+        return _with_jumps(machine.with_axes(max_accel_mm_s2=new), _jumps(machine)), options
 
 
 @dataclass(frozen=True)
@@ -498,14 +511,14 @@ class ResetPathMode(MachineValue):
 @dataclass(frozen=True)
 class CornerJump(MachineValue):
     def current(self, model):
-        m = model.machine
-        return {"corner_jump_mm_s": m.ncu.corner_velocity_jump_factor
-                * float(m.max_accel_mm_s2[0]) * m.ncu.ipo_cycle_s}
+        return {"corner_jump_mm_s": float(_jumps(model.machine)[0])}
 
     def apply_planner(self, machine, options, v):
-        f = corner_jump_factor(v["corner_jump_mm_s"], float(machine.max_accel_mm_s2[0]),
-                               machine.ncu.ipo_cycle_s)
-        return machine.with_ncu(corner_velocity_jump_factor=f), options
+        # Y and Z keep their machine-file ratio to X (equal MD32310: in proportion to A)
+        now = _jumps(machine)
+        ratio = (now / now[0] if now[0] > 0
+                 else np.asarray(machine.max_accel_mm_s2) / machine.max_accel_mm_s2[0])
+        return _with_jumps(machine, v["corner_jump_mm_s"] * ratio), options
 
 
 class Recorder(Effect):
@@ -626,7 +639,8 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
         "V = min_i jump_i / |t2_i - t1_i|: a 90 deg corner at the X jump, 45 deg at jump / 0.765. "
         "Acts only on corners run in continuous-path mode.",
         (Param("corner_jump_mm_s", "mm/s", 0.1, 200.0, "velocity jump the X axis may make at a "
-               "corner (machine file: corner_velocity_jump_factor = jump / (A_x t_IPO))"),)),
+               "corner (machine file: max_accel_ovl_factor = 1 + jump / (A t_IPO) per axis, "
+               "MD32310)"),)),
     ServoLag(
         "servo_lag", "servo lag: position loop Kv with or without feed forward",
         "The axes follow the set point through a P position loop of gain Kv with velocity "

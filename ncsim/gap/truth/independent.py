@@ -135,7 +135,7 @@ def truth_machine(nominal: MachineSpec, case: IndependentCase) -> tuple[PlainMac
     ncu = nominal.ncu
     v = np.array(nominal.max_velocity_mm_s)
     a = np.array(nominal.max_accel_mm_s2)
-    jump = ncu.corner_velocity_jump_factor * a * ncu.ipo_cycle_s
+    jump = (np.array(nominal.max_accel_ovl_factor) - 1.0) * a * ncu.ipo_cycle_s   # MD32310
     pm = PlainMachine(v_max_mm_s=tuple(v), a_max_mm_s2=tuple(a), ipo_cycle_s=ncu.ipo_cycle_s,
                       jump_mm_s=tuple(jump), continuous_path=case.g64,
                       settle_s=ncu.exact_stop_fine_settle_s,
@@ -155,7 +155,7 @@ def truth_machine(nominal: MachineSpec, case: IndependentCase) -> tuple[PlainMac
         reset = 64
         pm = replace(pm, continuous_path=True, settle_s=ms_to_s(p["settle_ms"]), g0_g1_window=True)
     elif case.effect == "corner_jump":
-        pm = replace(pm, jump_mm_s=tuple(p["corner_jump_mm_s"] * a / a[0]))
+        pm = replace(pm, jump_mm_s=tuple(p["corner_jump_mm_s"] * jump / jump[0]))
     return pm, reset
 
 
