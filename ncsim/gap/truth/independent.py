@@ -53,7 +53,7 @@ class IndependentKind:
 
 
 INDEPENDENT_KINDS: dict[str, IndependentKind] = {k.effect: k for k in (
-    IndependentKind("rapid_override", {"rapid_override_percent": (5.0, 30.0, "log")}),
+    IndependentKind("rapid_override", {"rapid_override_percent": (3.0, 15.0, "log")}),
     IndependentKind("feed_override", {"feed_override_percent": (60.0, 120.0, "lin")}),
     IndependentKind("axis_velocity", {"axis_velocity_m_min": (1.2, 2.7, "lin")}),
     IndependentKind("axis_accel", {"xy_accel_m_s2": (0.3, 2.0, "log"),
