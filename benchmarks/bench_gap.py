@@ -50,7 +50,7 @@ sys.path.insert(0, str(REPO))
 
 from ncsim.gap.effects import COMMAND_EFFECTS, EFFECTS  # noqa: E402
 from ncsim.gap.diagnose import diagnose  # noqa: E402
-from ncsim.errors import MeasuredDataError  # noqa: E402
+from ncsim.errors import MeasuredDataError, UsageError  # noqa: E402
 from ncsim.gap.pipeline import register_trace  # noqa: E402
 from ncsim.gap.truth.cases import CASE_KINDS, draw_case, truth_trace  # noqa: E402
 from ncsim.gap.truth.independent import (CONDITIONS, INDEPENDENT_KINDS,  # noqa: E402
@@ -113,8 +113,23 @@ def _reinterpret(program: str):
 
 
 def run_case(case) -> dict:
-    if getattr(case, "condition", None):
-        return run_independent_case(case)
+    """One case's row; a recording the diagnosis refuses (one line, exit 2 in the CLI) is a
+    row too: a miss, with the refusal as its top-1."""
+    try:
+        if getattr(case, "condition", None):
+            return run_independent_case(case)
+        return run_planner_case(case)
+    except (MeasuredDataError, UsageError) as exc:
+        kind = (INDEPENDENT_KINDS if getattr(case, "condition", None) else CASE_KINDS)[case.effect]
+        errs = {name: 1.0 for name in kind.ranges}
+        return {**case.as_dict(), "suite": "independent" if getattr(case, "condition", None) else "planner",
+                "n_samples": 0, "top1": "refused", "right": False, "refusal": str(exc),
+                "ranking": [], "fit_params": {}, "param_error": errs, "max_param_error": 1.0,
+                "shrink_percent": 0.0, "gap_before": math.nan, "gap_after": math.nan,
+                "metric_shrink_percent": {}, "n_evals": 0, "truth_s": 0.0, "diagnosis_s": 0.0}
+
+
+def run_planner_case(case) -> dict:
     path, machine = _STATE["path"], _STATE["machine"]
     t0 = time.perf_counter()
     measured = truth_trace(path, machine, case)
@@ -297,6 +312,10 @@ def summarise(rows: list[dict], seconds: float, args) -> tuple[dict, str]:
         lines += ["Misidentified cases:", ""]
         for r in wrong:
             where = f" ({r['condition']})" if r.get("condition") else ""
+            if r["top1"] == "refused":
+                lines.append(f"* case {r['index']}{where}: {r['effect']} {r['params']} -> refused: "
+                             + r["refusal"].split(": ", 1)[-1])
+                continue
             lines.append(f"* case {r['index']}{where}: {r['effect']} {r['params']} -> ranked "
                          + ", ".join(f"{e} {s_:.1f} %" for e, s_ in r["ranking"][:3]))
     return summary, "\n".join(lines) + "\n"

@@ -453,6 +453,29 @@ def rank_fits(fits: Sequence[EffectFit]) -> list[EffectFit]:
     return sorted(fits, key=key)
 
 
+def share_values(evaluator, fits: Sequence[EffectFit], base: Model) -> list[EffectFit]:
+    """Effects that share parameters (``corner_jump_mm_s`` is also ``reset_mode``'s) are nested
+    models: each fit is tried once more at the values another fit found for all of its
+    parameters, and keeps them where they fit better (one search may stop a little off an
+    optimum another reached), so that the simpler of two equal models is not ranked below by
+    chance of the search."""
+    out = []
+    for f in fits:
+        names = {p.name for p in get_effect(f.effect).params}
+        best = f
+        for g in fits:
+            if g is f or not names <= set(g.params):
+                continue
+            values = {n: g.params[n] for n in names}
+            model = get_effect(f.effect).apply(base, values)
+            after = evaluator.evaluate(model)
+            if after.gap < best.gap_after.gap:
+                best = replace(f, params=get_effect(f.effect).check(values), model=model,
+                               gap_after=after, n_evals=f.n_evals + 1)
+        out.append(best)
+    return out
+
+
 def indistinguishable(fits: Sequence[EffectFit]) -> list[str]:
     """The effects (after the best) that leave a gap within ``TIE_SHARE`` of the best's."""
     if not fits or fits[0].shrink_percent <= 0:
@@ -664,13 +687,15 @@ def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base:
     it, and ``recorder`` re-fits it."""
     t0 = time.perf_counter()
     base_model = make_base(machine, base)
+    notes = []
     if recorder_window_ms is not None:
         base_model = get_effect("recorder").apply(
             base_model, {"samples": round(recorder_window_ms / s_to_ms(RECORDER_RAW_PERIOD_S))})
+        notes.append(f"models compared after the recorder's {recorder_window_ms:g} ms mean "
+                     "(the recording's known filter)")
     ev = Evaluator(path, measured, align_options=align_options, registration=registration,
                    reinterpret=reinterpret, path_key=interpretation_key(machine))
     before, al, mt = ev.evaluate(base_model, full=True)
-    notes = []
     if candidates is not None:
         cands = tuple(candidates)
     else:
@@ -685,7 +710,7 @@ def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base:
         if progress is not None:
             progress(f"fit {c}")
         fits.append(fit_effect(ev, base_model, c, gap_before=before))
-    fits = rank_fits(fits)
+    fits = rank_fits(share_values(ev, fits, base_model))
     if do_combine and progress is not None:
         progress("combine")
     comb = forward_select(ev, fits, before, base_model) if do_combine else None

@@ -47,6 +47,9 @@ from ncsim.machine import MachineSpec, dump_machine_toml, load_machine
 
 FORMATS = ("auto", "csv", "kit", "umich", "summary")
 MIN_PERIOD_S = 1e-3   # a trace sampled faster is averaged down to 1 ms (the model grid is 2 ms)
+#: the recorder's mean of known layouts (compared after it): the KIT data set's converter
+#: averages 10 samples of the 500 Hz Edge capture (20 ms) before keeping every 10th
+RECORDER_WINDOW_MS = {"kit": 20.0}
 
 
 @dataclass
@@ -347,7 +350,8 @@ def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
         stages.expect(len(trace_cands) + (1 if combine else 0))
         d = diagnose_trace(path, spec, trace, base=base or "full", candidates=trace_cands,
                            do_combine=combine, program=programs[0], registration=reg,
-                           progress=stages, reinterpret=reinterpret)
+                           progress=stages, reinterpret=reinterpret,
+                           recorder_window_ms=RECORDER_WINDOW_MS.get(kind))
         return GapResult("trace", file, spec, planner=d, measured=trace, path=path,
                          registration=reg)
     from ncsim.gap.servo_part import diagnose_split
@@ -359,6 +363,7 @@ def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
     split = diagnose_split(path, spec, trace, base=base or "full",
                            planner_candidates=planner_cands, servo_candidates=servo_cands or None,
                            do_combine=combine, program=programs[0], registration=reg,
-                           progress=stages, reinterpret=reinterpret)
+                           progress=stages, reinterpret=reinterpret,
+                           recorder_window_ms=RECORDER_WINDOW_MS.get(kind))
     return GapResult("split", file, spec, planner=split.planner, servo=split.servo,
                      measured=trace, path=path, registration=reg)
