@@ -45,9 +45,14 @@ Pipeline (:func:`diagnose`):
    each of its two best local minima a finer grid between the neighbours (a limit that stops
    binding beyond some value leaves a plateau next to a narrow valley) and bounded Brent; for an integer a geometric scan then
    golden-section on the integers; every value of a discrete parameter; and a Nelder-Mead
-   polish when two floats are free together. Effects are ranked by
-   ``shrink_percent = 100 (1 - gap_after / gap_before)``; then a combined model adds the ranked
-   effects greedily while each still shrinks the gap by ``COMBINE_MIN_GAIN``.
+   polish when two floats are free together (``ncsim.gap.fit``). Nested effects share their
+   fitted values (:func:`share_values`); effects are ranked by the gap left, each parameter
+   charged ``PARSIMONY_SHARE`` of it (:func:`rank_fits`; ``shrink_percent = 100 (1 -
+   gap_after / gap_before)``), and fits within ``TIE_SHARE`` of the best are noted as
+   indistinguishable. The combined model comes from forward selection over structural
+   hypotheses (:func:`forward_select`): every step must shrink the gap by ``COMBINE_MIN_GAIN``.
+   An effect that changes how the program is interpreted (the reset path mode, MD20150) plans
+   on the program interpreted again (``reinterpret``, :class:`ModelCache`).
 
    Measured samples in motion that fall outside the model's span (a model that ends too early,
    or a failed alignment) count with the time outside the model's motion as time error and

@@ -27,7 +27,15 @@ are closed forms that share no code with the time-stepping truth of ``ncsim.gap.
   ``c a_n`` along the principal normal (``a_n = V^2 / R``, paper eq. 1), the paper's
   "centrifugation" (§5.2, §6.2);
 * ``servo_delay``: a pure time delay (what a recording skew between command and actual, or a
-  dead time in the drive, looks like).
+  dead time in the drive, looks like);
+* ``recorder``: the recorder's centred mean of N raw samples before it down-samples
+  (:func:`sample_mean_mm`).
+
+The effects real machines differ by are planner effects on machine and operator settings
+(:class:`MachineValue`): the rapid and feed overrides, the axis velocity (MD32000) and
+accelerations (MD32300), the reset path mode with its exact-stop settle and G64 corner jump
+(MD20150, MD36010, MD20552, MD32310) and the G64 corner jump alone; each names its machine data
+and writes it back through the machine file.
 
 Units: parameters are in the units people set machines in (m/s^3, ms, 1/s, um per m/s^2) and
 say so in their names; everything is converted to mm and s at the boundary of ``apply``.
