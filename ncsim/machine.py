@@ -23,10 +23,17 @@ from ncsim.config import Problems, between, is_number, open_share, read_toml, sh
 from ncsim.errors import ConfigWarning, MachineSpecError
 from ncsim.path import BRISK, COMPCAD, COMPOF, COMPRESSOR_NAMES, DRIVE, SOFT
 from ncsim.units import (deg_to_rad, m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_s2_to_m_s2,
-                         mm_s3_to_m_s3, mm_s_to_m_min, ms_to_s, rad_to_deg, s2_to_um_per_m_s2,
-                         s_to_ms, um_per_m_s2_to_s2)
+                         mm_s3_to_m_s3, mm_s_to_m_min, ms_to_s, percent_to_share, rad_to_deg,
+                         s2_to_um_per_m_s2, s_to_ms, share_to_percent, um_per_m_s2_to_s2)
 
 AXIS_NAMES = ("X", "Y", "Z")
+#: group-10 G functions a machine may reset to (MD20150 $MC_GCODE_RESET_VALUES)
+PATH_MODES = {"G60": 60, "G64": 64, "G641": 641, "G642": 642, "G643": 643, "G644": 644,
+              "G645": 645}
+#: MD20552 $MC_EXACT_POS_MODE_G0_TO_G1: the stop window at a G0<->G1 change
+G0_TO_G1_MODES = (0, 1, 2, 3)
+#: operator-panel overrides a machine file may hold (what a recording was made with), percent
+MAX_OVERRIDE_PERCENT = 200.0
 WORK_OFFSET_NAMES = ("G54", "G55", "G56", "G57")
 
 
@@ -69,6 +76,10 @@ class NcuSpec:
     ignore_ovl_factor_for_adis: bool = False  # MD20490 $MC_IGNORE_OVL_FACTOR_FOR_ADIS
     compress_block_path_limit_mm: float = 20.0  # MD20170 $MC_COMPRESS_BLOCK_PATH_LIMIT (B1's recommendation)
     crit_spline_angle_rad: float = deg_to_rad(36.0)  # SD42470 $SC_CRIT_SPLINE_ANGLE (B1 recommends 36 deg)
+    reset_path_mode: int = 60                 # MD20150 $MC_GCODE_RESET_VALUES, group 10 (60, 64, 641..645)
+    exact_pos_mode_g0_to_g1: int = 0          # MD20552: stop window at G0<->G1 changes (0 none, 1 G601, 2 G602, 3 G603)
+    rapid_override: float = 1.0               # rapid-traverse override in force (share of the G0 velocity)
+    feed_override: float = 1.0                # path-feed override in force (share of the programmed F)
 
     @property
     def g642_contour_tolerance(self) -> bool:
@@ -257,9 +268,14 @@ _NCU_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
      between(1e-6, 1e9, "mm"), float),
     ("crit_spline_angle_deg", "crit_spline_angle_rad", False, between(0.0, 180.0, "degrees"),
      deg_to_rad),
+    ("rapid_override_percent", "rapid_override", False,
+     between(1e-3, MAX_OVERRIDE_PERCENT, "%"), percent_to_share),
+    ("feed_override_percent", "feed_override", False,
+     between(1e-3, MAX_OVERRIDE_PERCENT, "%"), percent_to_share),
 )
 #: [ncu] keys that are not plain numbers (read in machine_from_dict)
-_NCU_OTHER_KEYS = ("smoothing_mode", "ignore_ovl_factor_for_adis")
+_NCU_OTHER_KEYS = ("smoothing_mode", "ignore_ovl_factor_for_adis", "reset_path_mode",
+                   "exact_pos_mode_g0_to_g1")
 #: keys of earlier versions: what replaced them
 _REPLACED_KEYS = {
     ("ncu", "corner_velocity_jump_factor"):
@@ -351,6 +367,15 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
     ignore = c.boolean(ntab, "ncu", "ignore_ovl_factor_for_adis")
     if ignore is not None:
         ncu_values["ignore_ovl_factor_for_adis"] = ignore
+    reset = c.string(ntab, "ncu", "reset_path_mode")
+    if reset is not None:
+        if reset.upper() in PATH_MODES:
+            ncu_values["reset_path_mode"] = PATH_MODES[reset.upper()]
+        else:
+            c.add("ncu.reset_path_mode", f"must be one of {', '.join(PATH_MODES)}, got {reset!r}")
+    g0g1 = c.integer(ntab, "ncu", "exact_pos_mode_g0_to_g1", minimum=0, maximum=3)
+    if g0g1 is not None:
+        ncu_values["exact_pos_mode_g0_to_g1"] = g0g1
     cycle832 = _cycle832_spec(c, data)
 
     wtab = c.table(data, "work_offsets")
@@ -555,7 +580,11 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
               f"ignore_ovl_factor_for_adis = {'true' if n.ignore_ovl_factor_for_adis else 'false'}"
               f"  # MD20490 $MC_IGNORE_OVL_FACTOR_FOR_ADIS",
               f"compress_block_path_limit_mm = {_f(n.compress_block_path_limit_mm)}  # MD20170",
-              f"crit_spline_angle_deg = {_f(rad_to_deg(n.crit_spline_angle_rad))}  # SD42470"]
+              f"crit_spline_angle_deg = {_f(rad_to_deg(n.crit_spline_angle_rad))}  # SD42470",
+              f"reset_path_mode = {_q(path_mode_name(n.reset_path_mode))}  # MD20150 $MC_GCODE_RESET_VALUES (group 10)",
+              f"exact_pos_mode_g0_to_g1 = {n.exact_pos_mode_g0_to_g1}  # MD20552 $MC_EXACT_POS_MODE_G0_TO_G1",
+              f"rapid_override_percent = {_f(share_to_percent(n.rapid_override))}  # rapid-traverse override in force",
+              f"feed_override_percent = {_f(share_to_percent(n.feed_override))}  # feed override in force"]
     if spec.work_offsets_mm:
         lines += ["", "[work_offsets]"]
         for key, (x, y, z) in spec.work_offsets_mm:
@@ -578,6 +607,11 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
         lines += ["", "[structure]",
                   f"radial_compliance_um_per_m_s2 = {_f(s2_to_um_per_m_s2(spec.structure.radial_compliance_mm_per_mm_s2))}"]
     return "\n".join(lines) + "\n"
+
+
+def path_mode_name(code: int) -> str:
+    """``60`` -> ``"G60"`` (a group-10 code as the program writes it)."""
+    return f"G{int(code)}"
 
 
 def _f(v: float) -> str:

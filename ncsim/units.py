@@ -111,3 +111,13 @@ def deg_to_rad(value_deg):
 
 def rad_to_deg(value_rad):
     return value_rad * DEG_PER_RAD
+
+
+def percent_to_share(value_percent):
+    """An override or share in percent (as on the operator panel) to a fraction."""
+    return value_percent / 100.0
+
+
+def share_to_percent(value_share):
+    """A fraction to percent."""
+    return value_share * 100.0

@@ -12,8 +12,8 @@ import pytest
 
 from ncsim.gap.effects import Param, get_effect, make_base
 from ncsim.errors import UsageError
-from ncsim.gap.diagnose import (Evaluator, ModelCache, _float_search, _int_search, diagnose, fit_values,
-                       localise, shrink_percent)
+from ncsim.gap.diagnose import Evaluator, ModelCache, diagnose, localise
+from ncsim.gap.fit import _float_search, _int_search, fit_values, shrink_percent
 from ncsim.gap.truth.cases import Case, draw_case, truth_trace
 from ncsim.nc.interpret import interpret_file, interpret_text
 from ncsim.machine import load_machine

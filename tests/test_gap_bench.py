@@ -76,3 +76,29 @@ def test_summary_tables(bench):
                                          **{k: v * 1.05 for k, v in cases[0].params.items()
                                             if not isinstance(v, str)}})
     assert all(math.isclose(e, 0.05, rel_tol=1e-9) or e == 0.0 for e in errs.values())
+
+
+def test_independent_cases_cover_every_effect_and_condition(bench):
+    from ncsim.gap.truth.independent import CONDITIONS, INDEPENDENT_KINDS
+    n = len(INDEPENDENT_KINDS) * len(CONDITIONS)
+    cases = bench.draw_independent_cases(n, 3)
+    assert {(c.effect, c.condition) for c in cases} == {(k, c) for k in INDEPENDENT_KINDS
+                                                        for c in CONDITIONS}
+    assert [c.as_dict() for c in cases] == [c.as_dict() for c in bench.draw_independent_cases(n, 3)]
+    for c in cases:
+        for name, (lo, hi, _) in INDEPENDENT_KINDS[c.effect].ranges.items():
+            assert lo <= c.params[name] <= hi
+        assert c.known_recorder_ms == (20.0 if c.condition in ("50hz", "kit")
+                                       and c.effect != "recorder" else None)
+
+
+def test_one_independent_case_end_to_end(bench, repo_root):
+    """A rapid override planted in the plain planner's truth, recorded like KIT's trace (one
+    pass of three, machine coordinates, 50 Hz after a 20 ms mean): named, and its value found."""
+    from ncsim.gap.truth.independent import draw_independent_case
+    case = draw_independent_case(np.random.default_rng(11), 0, "rapid_override", "kit")
+    bench._init(str(repo_root / "programs" / "diagnosis_mix.mpf"), "mikron")
+    row = bench.run_case(case)
+    assert row["suite"] == "independent" and row["right"], row["ranking"][:3]
+    assert row["max_param_error"] < 0.02 and row["shrink_percent"] > 80.0
+    assert row["offset_error_um"] < 5.0

@@ -5,7 +5,8 @@ Pipeline (:func:`diagnose`):
 
 1. **Base model** (``effects.make_base``): e.g. ``full`` or ``axis-only``; its *model trace* is
    the planned motion sampled on a uniform grid (``MODEL_DT_S``, 2 ms; held at rest for
-   ``SETTLE_S`` after the end so that lagging axes can settle) and passed through the model's
+   ``SETTLE_S`` after the end so that lagging axes can settle, and preceded by ``LEAD_S`` of
+   rest when the recorder's filter acts) and passed through the model's
    trace effects (servo, structure).
 2. **Alignment**: the recording is registered on the program once (``ncsim.gap.register``:
    the blocks and pass it covers, the work offset, each sample's place on the path), then, per
@@ -44,9 +45,14 @@ Pipeline (:func:`diagnose`):
    each of its two best local minima a finer grid between the neighbours (a limit that stops
    binding beyond some value leaves a plateau next to a narrow valley) and bounded Brent; for an integer a geometric scan then
    golden-section on the integers; every value of a discrete parameter; and a Nelder-Mead
-   polish when two floats are free together. Effects are ranked by
-   ``shrink_percent = 100 (1 - gap_after / gap_before)``; then a combined model adds the ranked
-   effects greedily while each still shrinks the gap by ``COMBINE_MIN_GAIN``.
+   polish when two floats are free together (``ncsim.gap.fit``). Nested effects share their
+   fitted values (:func:`share_values`); effects are ranked by the gap left, each parameter
+   charged ``PARSIMONY_SHARE`` of it (:func:`rank_fits`; ``shrink_percent = 100 (1 -
+   gap_after / gap_before)``), and fits within ``TIE_SHARE`` of the best are noted as
+   indistinguishable. The combined model comes from forward selection over structural
+   hypotheses (:func:`forward_select`): every step must shrink the gap by ``COMBINE_MIN_GAIN``.
+   An effect that changes how the program is interpreted (the reset path mode, MD20150) plans
+   on the program interpreted again (``reinterpret``, :class:`ModelCache`).
 
    Measured samples in motion that fall outside the model's span (a model that ends too early,
    or a failed alignment) count with the time outside the model's motion as time error and
@@ -60,23 +66,23 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, replace
-from typing import Callable, Iterable, Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from ncsim.gap.align import AlignPhase, Alignment, align
-from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, TRACE_EFFECTS, Model, jsonable,
-                      apply_trace_effects, corrected_machine, get_effect, make_base,
-                      model_description)
+from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, RECORDER_RAW_PERIOD_S, REINTERPRETING,
+                               TRACE_EFFECTS, Model,
+                               apply_trace_effects, corrected_machine, get_effect, make_base,
+                               model_description)
 from ncsim.errors import UsageError
+from ncsim.gap.fit import EffectFit, choice_variants, fit_effect
 from ncsim.gap.iso230 import circular_deviation, deviation_profile, radial_deviation_um
 from ncsim.plan.limits import path_limits
 from ncsim.machine import MachineSpec
 from ncsim.gap.measured import MeasuredTrace, derived_speed_mm_s
 from ncsim.gap.metrics import (SLOWEST_FEED_SHARE, SPEED_WINDOW_S, GapMetrics, GapScales,
-                               compare_speed_mm_s, gap_metrics, gap_scales, rms,
-                               shrink_percent)
+                               compare_speed_mm_s, gap_metrics, gap_scales, rms)
 from ncsim.gap.register import Registration, register
 from ncsim.path import ARC, Path
 from ncsim.plan.lookahead import plan
@@ -85,10 +91,9 @@ from ncsim.units import mm_to_um, s_to_ms
 
 MODEL_DT_S = 2e-3            # model trace grid (chord error a dt^2/8: 0.5 um at 1 m/s^2)
 SETTLE_S = 0.5               # model held at rest after the end (lagging axes settle)
+WINDOW_MARGIN_S = 0.5        # model traces sampled this much beyond what a recording covers
+LEAD_S = 0.1                 # rest before the motion of a model trace through the recorder
 COMBINE_MIN_GAIN = 0.05      # combined model: an effect must shrink the gap by 5 % more
-N_GRID = 7                   # float parameters: log-spaced grid points before Brent
-MAX_STARTS = 2               # float parameters: local minima of the grid refined
-INT_GRID = (1, 2, 3, 4, 5, 6, 7, 8, 10, 12, 14, 16, 20, 24, 32, 48, 64, 96, 128)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -99,7 +104,7 @@ INT_GRID = (1, 2, 3, 4, 5, 6, 7, 8, 10, 12, 14, 16, 20, 24, 32, 48, 64, 96, 128)
 class ModelTrace:
     """A model's predicted positions on a uniform grid, with the planner's labels."""
 
-    t_s: np.ndarray          # (n,) uniform grid from 0
+    t_s: np.ndarray          # (n,) uniform grid (the motion starts at 0; from -LEAD_S with a recorder)
     pos_mm: np.ndarray       # (n, 3) set point after the model's trace effects
     s_mm: np.ndarray         # (n,) path length of the set point (non-decreasing)
     block: np.ndarray        # (n,) block of the set point
@@ -110,18 +115,54 @@ class ModelTrace:
     compare_speed_mm_s: np.ndarray | None = None  # speed through the measured's operator
 
 
+def interpretation_key(machine: MachineSpec) -> tuple:
+    """What the interpreter takes from the machine that an effect may change: the group-10
+    reset value (MD20150, ``effects.ResetPathMode``). Models that differ here need the program
+    interpreted again."""
+    return (machine.ncu.reset_path_mode,)
+
+
 class ModelCache:
     """Plans and samples a path under models, re-planning only when the planner's inputs
-    (machine, options) change."""
+    (machine, options) change.
+
+    ``path`` was interpreted on a machine with interpretation key ``path_key``
+    (:func:`interpretation_key`; None: any). A model whose machine has another key is planned
+    on ``reinterpret(machine)`` (the program interpreted again, cached); without
+    ``reinterpret`` such a model is a :class:`~ncsim.errors.UsageError`.
+
+    ``s_window_mm = (lo, hi)``: only the stretch of the motion from ``WINDOW_MARGIN_S`` before
+    it reaches path length ``lo`` to as long after ``hi`` is sampled (a recording that covers
+    part of a long program needs no more; sampling is most of an evaluation's cost)."""
 
     def __init__(self, path: Path, dt_s: float = MODEL_DT_S, settle_s: float = SETTLE_S,
-                 max_plans: int = 64):
+                 max_plans: int = 64, *, reinterpret=None, path_key: tuple | None = None,
+                 s_window_mm: tuple | None = None):
         self.path = path
         self.dt_s = dt_s
         self.settle_s = settle_s
         self._plans: dict = {}
         self._limits: dict = {}
         self.max_plans = max_plans
+        self.reinterpret = reinterpret
+        self._paths: dict = {} if path_key is None else {path_key: path}
+        self.s_window_mm = s_window_mm
+
+    def path_for(self, machine: MachineSpec) -> Path:
+        """The path the model's machine makes of the program (see the class docstring)."""
+        if not self._paths:
+            return self.path
+        key = interpretation_key(machine)
+        hit = self._paths.get(key)
+        if hit is None:
+            if self.reinterpret is None:
+                raise UsageError("this model changes how the program is interpreted (reset path "
+                                 "mode): it needs the program, not only its path")
+            hit = self._paths[key] = self.reinterpret(machine)
+            if hit.n != self.path.n:
+                raise UsageError(f"the program interpreted again has {hit.n} blocks, not "
+                                 f"{self.path.n}")
+        return hit
 
     def limits(self, model: Model):
         """Stage 1 of the planner (``limits.path_limits``), shared by models that differ only in
@@ -129,7 +170,7 @@ class ModelCache:
         key = (model.machine.with_ncu(lookahead_blocks=1), replace(model.options, lookahead=True))
         hit = self._limits.get(key)
         if hit is None:
-            hit = path_limits(self.path, model.machine, model.options)
+            hit = path_limits(self.path_for(model.machine), model.machine, model.options)
             if len(self._limits) >= self.max_plans:
                 self._limits.pop(next(iter(self._limits)))
             self._limits[key] = hit
@@ -141,10 +182,16 @@ class ModelCache:
         hit = self._plans.get(key)
         if hit is not None:
             return hit
-        motion = plan(self.path, model.machine, model.options, limits=self.limits(model))
+        motion = plan(self.path_for(model.machine), model.machine, model.options,
+                      limits=self.limits(model))
         total = motion.total_time_s
         n = int(math.ceil((total + self.settle_s) / self.dt_s)) + 1
         t = np.arange(n) * self.dt_s
+        if self.s_window_mm is not None:
+            # piece start times against piece start lengths: monotone, close enough for a
+            # window with WINDOW_MARGIN_S to spare
+            t_lo, t_hi = np.interp(self.s_window_mm, motion.piece_s_mm, motion.piece_t_s[:-1])
+            t = t[(t >= t_lo - WINDOW_MARGIN_S) & (t <= t_hi + WINDOW_MARGIN_S + self.settle_s)]
         tr = sample_motion(motion, t_s=np.minimum(t, total))
         if len(self._plans) >= self.max_plans:
             self._plans.pop(next(iter(self._plans)))
@@ -153,13 +200,22 @@ class ModelCache:
 
     def trace(self, model: Model) -> ModelTrace:
         t, tr, total, _ = self.setpoint(model)
+        if model.post_values("recorder") is not None and t[0] == 0.0:
+            # LEAD_S of rest before the start: the recorder's centred filter reaches before
+            # it, and a measured trace that starts at rest must meet a model that does too
+            n_lead = int(round(LEAD_S / self.dt_s))
+            tr = tr.select(np.r_[np.zeros(n_lead, dtype=np.int64), np.arange(len(t))])
+            t = np.r_[t[0] - self.dt_s * np.arange(n_lead, 0, -1), t]
         pos = tr.pos_mm
         if model.post:
             pos = apply_trace_effects(model, tr, t, pos)
             feed = np.linalg.norm(np.gradient(pos, t, axis=0), axis=1)
         else:
             feed = tr.feed_mm_s
-        return ModelTrace(t_s=t, pos_mm=pos, s_mm=tr.s_mm, block=tr.block, phase=tr.phase,
+        # s(t) from the constant-jerk pieces can step back by rounding (1e-14 mm) where a
+        # ramp ends at rest: the place along the path never goes back
+        s_mm = np.maximum.accumulate(tr.s_mm)
+        return ModelTrace(t_s=t, pos_mm=pos, s_mm=s_mm, block=tr.block, phase=tr.phase,
                           feed_mm_s=feed, setpoint=tr, cycle_time_s=total)
 
     def motion(self, model: Model):
@@ -174,7 +230,8 @@ class Evaluator:
     """Gap of models against one measured trace on one path (caches the plans)."""
 
     def __init__(self, path: Path, measured: MeasuredTrace, *, dt_s: float = MODEL_DT_S,
-                 align_options: Mapping | None = None, registration: Registration | None = None):
+                 align_options: Mapping | None = None, registration: Registration | None = None,
+                 reinterpret=None, path_key: tuple | None = None):
         if len(measured) < 10:
             raise UsageError(f"{measured.source}: {len(measured)} samples, need at least 10 "
                              "to diagnose a gap")
@@ -186,7 +243,9 @@ class Evaluator:
             raise UsageError(f"{measured.source}: the registration has {len(registration.s_mm)} "
                              f"samples, the trace {len(measured)}")
         self.registration = registration
-        self.cache = ModelCache(path, dt_s=dt_s)
+        covered = registration.s_mm
+        self.cache = ModelCache(path, dt_s=dt_s, reinterpret=reinterpret, path_key=path_key,
+                                s_window_mm=(float(np.min(covered)), float(np.max(covered))))
         seg = np.unique(registration.segment)
         feeds = path.feed_mm_s[seg][~path.rapid[seg] & np.isfinite(path.feed_mm_s[seg])]
         cap = SLOWEST_FEED_SHARE * float(feeds.min()) if feeds.size else math.inf
@@ -223,224 +282,6 @@ class Evaluator:
         al = self.align(mt)
         m = gap_metrics(al, mt, self.scales)
         return (m, al, mt) if full else m
-
-
-# ---------------------------------------------------------------------------------------------
-# Fitting one effect
-# ---------------------------------------------------------------------------------------------
-
-@dataclass
-class EffectFit:
-    """One candidate effect fitted on top of a base model."""
-
-    effect: str
-    params: dict
-    model: Model
-    gap_before: GapMetrics
-    gap_after: GapMetrics
-    added: bool                 # True: the base lacked the effect; False: re-fitted
-    n_evals: int = 0
-    seconds: float = 0.0
-    effects: tuple[str, ...] = ()   # for a combined model: the effects in it
-
-    @property
-    def shrink_percent(self) -> float:
-        return shrink_percent(self.gap_before.gap, self.gap_after.gap)
-
-    def metric_shrink(self) -> dict:
-        b, a = self.gap_before.metric_values(), self.gap_after.metric_values()
-        return {k: shrink_percent(b[k], a[k]) for k in b if k in a}
-
-    def as_dict(self) -> dict:
-        return {"effect": self.effect, "title": EFFECTS[self.effect].title if self.effect in EFFECTS else "",
-                "added": self.added, "params": jsonable(self.params),
-                "gap_before": self.gap_before.as_dict(), "gap_after": self.gap_after.as_dict(),
-                "shrink_percent": self.shrink_percent, "metric_shrink_percent": self.metric_shrink(),
-                "n_evals": self.n_evals, "seconds": self.seconds,
-                **({"effects": list(self.effects)} if self.effects else {})}
-
-
-def _float_search(objective, p, x0: float | None, n_grid: int = N_GRID, xtol_rel: float = 4e-3):
-    """Minimise ``objective(x)`` over ``[p.low, p.high]``: a grid (log-spaced if ``p.log``)
-    including ``x0``, then :func:`_refine` around its ``MAX_STARTS`` best local minima."""
-    lo, hi = float(p.low), float(p.high)
-    fwd = (np.log if p.log else (lambda v: v))
-    inv = (np.exp if p.log else (lambda v: v))
-    grid = np.linspace(fwd(lo), fwd(hi), n_grid)
-    if x0 is not None and lo <= x0 <= hi:
-        grid = np.unique(np.append(grid, fwd(x0)))
-    values = np.array([objective(float(inv(g))) for g in grid])
-    best_x, best_f = float(inv(grid[int(np.argmin(values))])), float(np.min(values))
-    if np.ptp(values) <= 1e-12 * max(float(np.max(np.abs(values))), 1e-300):
-        return best_x, best_f            # the parameter changes nothing here: no refinement
-    # refine around each of the (at most MAX_STARTS) best local minima of the grid: the gap can
-    # have a narrow valley between coarse points (a BRISK acceleration, a transition time)
-    # while a broad, shallower dip elsewhere holds the grid's best point
-    interior = [k for k in range(len(grid))
-                if (k == 0 or values[k] <= values[k - 1]) and (k == len(grid) - 1 or values[k] <= values[k + 1])]
-    for k in sorted(interior, key=lambda i: values[i])[:MAX_STARTS]:
-        x, f = _refine(objective, grid, values, k, inv, p.log, xtol_rel)
-        if f < best_f:
-            best_x, best_f = x, f
-    return best_x, best_f
-
-
-def _refine(objective, grid, values, k, inv, log: bool, xtol_rel: float):
-    """A finer grid between grid point ``k``'s neighbours (a narrow valley next to a plateau --
-    a limit that stops binding beyond some value -- is not missed), then bounded Brent between
-    the neighbours of the best point of both."""
-    a, b = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
-    fine = np.linspace(a, b, 6)[1:-1]
-    fine = fine[np.min(np.abs(fine[:, None] - grid[None, :]), axis=1) > 1e-12]
-    g2, v2 = grid, values
-    if len(fine):
-        g2 = np.concatenate([grid, fine])
-        v2 = np.concatenate([values, [objective(float(inv(g))) for g in fine]])
-        order = np.argsort(g2)
-        g2, v2 = g2[order], v2[order]
-        inside = np.nonzero((g2 >= a) & (g2 <= b))[0]
-        k = int(inside[np.argmin(v2[inside])])
-        a, b = g2[max(k - 1, 0)], g2[min(k + 1, len(g2) - 1)]
-    if b - a <= 0:
-        return float(inv(g2[k])), float(v2[k])
-    tol = xtol_rel if log else 0.05 * xtol_rel * max(abs(b - a), 1e-12)
-    res = minimize_scalar(lambda g: objective(float(inv(g))), bounds=(a, b), method="bounded",
-                          options={"xatol": tol})
-    if res.fun <= v2[k]:
-        return float(inv(res.x)), float(res.fun)
-    return float(inv(g2[k])), float(v2[k])
-
-
-def _int_search(objective, p, x0: int | None):
-    """Integer parameter: a geometric scan, then every integer between the best point's
-    neighbours in the scan."""
-    cand = sorted({v for v in INT_GRID if p.low <= v <= p.high} | {int(p.low), int(p.high)}
-                  | ({int(x0)} if x0 is not None and p.low <= x0 <= p.high else set()))
-    values = {v: objective(v) for v in cand}
-    best = min(values, key=values.get)
-    i = cand.index(best)
-    lo, hi = cand[max(i - 1, 0)], cand[min(i + 1, len(cand) - 1)]
-
-    def f(v):
-        if v not in values:
-            values[v] = objective(v)
-        return values[v]
-
-    # golden-section on the integers of [lo, hi] (unimodal near the scan's best), then +-1
-    a, b = lo, hi
-    while b - a > 3:
-        c = a + int(round(0.382 * (b - a)))
-        d = a + int(round(0.618 * (b - a)))
-        if c == d:
-            break
-        if f(c) <= f(d):
-            b = d
-        else:
-            a = c
-    for v in range(a, b + 1):
-        f(v)
-    best = min(values, key=values.get)
-    for v in (best - 1, best + 1):
-        if p.low <= v <= p.high:
-            f(v)
-    best = min(values, key=values.get)
-    return best, values[best]
-
-
-def fit_values(objective, params: Sequence, start: Mapping[str, object], free: Iterable[str]):
-    """Minimise ``objective(values)`` over the ``free`` parameters (others held at
-    ``start``). Choices are enumerated; for each, integers are scanned and floats searched one
-    at a time (coordinate search, two sweeps when more than one is free)."""
-    free = [p for p in params if p.name in set(free)]
-    choices = [p for p in free if p.kind == "choice"]
-    numeric = [p for p in free if p.kind != "choice"]
-    best_vals, best_f = dict(start), math.inf
-    combos = [{}]
-    for p in choices:
-        combos = [dict(c, **{p.name: ch}) for c in combos for ch in p.choices]
-    for combo in combos:
-        vals = dict(start, **combo)
-        f = None
-        sweeps = 2 if len(numeric) > 1 else 1
-        for _ in range(sweeps):
-            for p in numeric:
-                def obj1(x, p=p, vals=vals):
-                    return objective(dict(vals, **{p.name: x}))
-                if p.kind == "int":
-                    x, f = _int_search(obj1, p, vals.get(p.name))
-                else:
-                    x0 = vals.get(p.name)
-                    x, f = _float_search(obj1, p, None if x0 is None else float(x0))
-                vals[p.name] = x
-        floats = [p for p in numeric if p.kind == "float"]
-        if len(floats) >= 2:
-            vals, f = _polish(objective, floats, vals)
-        if f is None:
-            f = objective(vals)
-        if f < best_f:
-            best_vals, best_f = vals, f
-    return best_vals, best_f
-
-
-def _polish(objective, floats, vals):
-    """Nelder-Mead over several float parameters together (log-scaled where the parameter is),
-    from the coordinate-search result: coordinate steps stall in a curved valley (e.g. Kv and
-    the feed-forward weight, which trade off along (1 - k_ff)/Kv)."""
-    from scipy.optimize import minimize
-
-    def to_x(v):
-        return np.array([math.log(v[p.name]) if p.log else v[p.name] for p in floats])
-
-    def to_vals(x):
-        out = dict(vals)
-        for p, xi in zip(floats, x):
-            lo, hi = float(p.low), float(p.high)
-            out[p.name] = min(max(math.exp(xi) if p.log else float(xi), lo), hi)
-        return out
-
-    x0 = to_x(vals)
-    span = np.array([0.1 if p.log else 0.1 * (p.high - p.low) for p in floats])
-    simplex = np.vstack([x0] + [x0 + np.eye(len(floats))[i] * span[i] for i in range(len(floats))])
-    res = minimize(lambda x: objective(to_vals(x)), x0, method="Nelder-Mead",
-                   options={"initial_simplex": simplex, "xatol": 1e-4, "fatol": 1e-10,
-                            "maxfev": 300})
-    best = to_vals(res.x)
-    f = objective(best)
-    f0 = objective(vals)
-    return (best, f) if f <= f0 else (vals, f0)
-
-
-def free_params(effect, command: bool) -> list[str]:
-    return [p.name for p in effect.params if command or not p.fixed_unless_command]
-
-
-def fit_effect(evaluator, base: Model, effect_name: str, *,
-               gap_before=None, command: bool = False) -> EffectFit:
-    """Add (or re-fit) one effect on ``base`` and fit its parameters to minimise the gap.
-
-    ``evaluator`` is anything with ``evaluate(model)`` returning an object with a ``gap``
-    (:class:`Evaluator` for traces, ``published.SummaryEvaluator`` for published values)
-    and an ``n_evals`` counter."""
-    t0 = time.perf_counter()
-    effect = get_effect(effect_name)
-    n0 = evaluator.n_evals
-    if gap_before is None:
-        gap_before = evaluator.evaluate(base)
-    start = effect.check({k: v for k, v in effect.current(base).items()})
-    cache: dict = {}
-
-    def objective(values):
-        key = tuple(sorted((k, round(v, 12) if isinstance(v, float) else v) for k, v in values.items()))
-        if key not in cache:
-            cache[key] = evaluator.evaluate(effect.apply(base, values)).gap ** 2
-        return cache[key]
-
-    values, _ = fit_values(objective, effect.params, start, free_params(effect, command))
-    model = effect.apply(base, values)
-    after = evaluator.evaluate(model)
-    return EffectFit(effect=effect_name, params=effect.check(values), model=model,
-                     gap_before=gap_before, gap_after=after, added=not effect.is_active(base),
-                     n_evals=evaluator.n_evals - n0, seconds=time.perf_counter() - t0)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -599,6 +440,55 @@ def default_candidates(command: bool = False) -> tuple[str, ...]:
     return PLANNER_EFFECTS + TRACE_EFFECTS + (("servo_delay",) if command else ())
 
 
+#: ranking: a fit must beat a simpler one by this share of its gap per extra free parameter
+#: (a fit with more parameters finds a slightly lower gap even where it is the same model)
+PARSIMONY_SHARE = 0.01
+#: fits whose gaps are within this share of the best one's are reported as indistinguishable
+TIE_SHARE = 0.01
+
+
+def rank_fits(fits: Sequence[EffectFit]) -> list[EffectFit]:
+    """Best first by the gap after the fit; between fits that leave (nearly) the same gap the
+    one with fewer free parameters first: each free parameter costs ``PARSIMONY_SHARE`` of the
+    gap (a BRISK acceleration and an axis acceleration on a BRISK program are the same
+    model, and the simpler name is the better answer)."""
+    def key(f):
+        n = len(get_effect(f.effect).params) if f.effect in EFFECTS else 1
+        return f.gap_after.gap * (1.0 + PARSIMONY_SHARE * n)
+    return sorted(fits, key=key)
+
+
+def share_values(evaluator, fits: Sequence[EffectFit], base: Model) -> list[EffectFit]:
+    """Effects that share parameters (``corner_jump_mm_s`` is also ``reset_mode``'s) are nested
+    models: each fit is tried once more at the values another fit found for all of its
+    parameters, and keeps them where they fit better (one search may stop a little off an
+    optimum another reached), so that the simpler of two equal models is not ranked below by
+    chance of the search."""
+    out = []
+    for f in fits:
+        names = {p.name for p in get_effect(f.effect).params}
+        best = f
+        for g in fits:
+            if g is f or not names <= set(g.params):
+                continue
+            values = {n: g.params[n] for n in names}
+            model = get_effect(f.effect).apply(base, values)
+            after = evaluator.evaluate(model)
+            if after.gap < best.gap_after.gap:
+                best = replace(f, params=get_effect(f.effect).check(values), model=model,
+                               gap_after=after, n_evals=f.n_evals + 1)
+        out.append(best)
+    return out
+
+
+def indistinguishable(fits: Sequence[EffectFit]) -> list[str]:
+    """The effects (after the best) that leave a gap within ``TIE_SHARE`` of the best's."""
+    if not fits or fits[0].shrink_percent <= 0:
+        return []
+    best = fits[0].gap_after.gap
+    return [f.effect for f in fits[1:] if f.gap_after.gap <= best * (1.0 + TIE_SHARE)]
+
+
 def combine(evaluator, fits: Sequence[EffectFit], gap_before,
             max_effects: int = 4, max_tries: int = 4) -> EffectFit | None:
     """Greedy combined model: start from the first fit (the best single effect); try the next
@@ -630,21 +520,194 @@ def combine(evaluator, fits: Sequence[EffectFit], gap_before,
                      seconds=time.perf_counter() - t0, effects=tuple(chosen))
 
 
+def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, base: Model, *,
+                   max_effects: int = 4, n_full: int = 2, width: int = 1,
+                   n_partners: int = 1) -> EffectFit | None:
+    """Combined model by forward selection with a small beam: start from the best single fit;
+    at each step, for each model kept so far, screen every candidate it lacks on top of it
+    with a coarse fit (grids only, :func:`~ncsim.gap.fit.fit_values`), fit the ``n_full`` best
+    and every choice of a discrete parameter fully, re-fit the effects already in
+    (:func:`_backfit`), and keep the children that shrink their parent's gap by at least
+    ``COMBINE_MIN_GAIN``. A discrete choice that does not pay off alone is tried once more
+    together with the ``n_partners`` best other candidates: continuous path against exact
+    stop only shows once the ramps that shape the corners are fitted too. The ``width`` best
+    children go on, and with them the best child of every structural hypothesis (the discrete
+    choices it makes, e.g. G60 or G64), so that a first choice that fits a little better does
+    not lock the others out. Candidates whose parameters changed nothing at all in their
+    single fit are left out (they do not act on this trace), unless they make a discrete choice.
+    The best model seen is returned, without effects that no longer matter in it
+    (:func:`_prune`, against the ``base`` model)."""
+    if not fits or fits[0].shrink_percent <= 0:
+        return None
+    t0 = time.perf_counter()
+    n0 = evaluator.n_evals
+    names = [f.effect for f in fits
+             if f.sensitive or any(p.kind == "choice" for p in get_effect(f.effect).params)]
+    # a node: (fit of its model, the effects in it, their parameters)
+    beam = [(fits[0], (fits[0].effect,), {fits[0].effect: fits[0].params})]
+    best = beam[0]
+    for _ in range(max_effects - 1):
+        children: dict = {}
+
+        def keep(node, parent_gap):
+            fit, chosen, params = node
+            if fit.gap_after.gap >= parent_gap * (1.0 - COMBINE_MIN_GAIN):
+                return
+            key = frozenset(_labels(chosen, params))
+            if key not in children or fit.gap_after.gap < children[key][0].gap_after.gap:
+                children[key] = node
+
+        for node in beam:
+            current, chosen, params = node
+            if len(chosen) >= max_effects:
+                continue
+            variants = [(n, v) for n in names if n not in chosen for v in choice_variants(n)]
+            screen = sorted(((fit_effect(evaluator, current.model, n, gap_before=current.gap_after,
+                                         coarse=True, fixed=v), v) for n, v in variants),
+                            key=lambda fv: fv[0].gap_after.gap)
+            plain = [f.effect for f, v in screen if not v][:n_partners]
+            for f, v in screen[:n_full] + [fv for fv in screen[n_full:] if fv[1]]:
+                child = _extend(evaluator, node, f.effect, v)
+                keep(child, current.gap_after.gap)
+                if v and child[0].gap_after.gap >= current.gap_after.gap * (1.0 - COMBINE_MIN_GAIN) \
+                        and len(chosen) + 2 <= max_effects:
+                    for partner in plain:
+                        if partner != f.effect:
+                            keep(_extend(evaluator, child, partner, {}), current.gap_after.gap)
+        if not children:
+            break
+        ranked = sorted(children.values(), key=lambda n: n[0].gap_after.gap)
+        beam = ranked[:width]
+        seen = {_structure(n[1], n[2]) for n in beam}
+        for n in ranked[width:]:
+            sig = _structure(n[1], n[2])
+            if sig not in seen:
+                seen.add(sig)
+                beam.append(n)
+        # only the children that go on are re-fitted as a whole (the costly part)
+        beam = sorted((_backfit_node(evaluator, n) for n in beam), key=lambda n: n[0].gap_after.gap)
+        if beam[0][0].gap_after.gap < best[0].gap_after.gap:
+            best = beam[0]
+    fit, chosen, params = _prune(evaluator, best, base)
+    if len(chosen) == 1:
+        return None
+    return EffectFit(effect="+".join(chosen), params={k: v for e in chosen for k, v in params[e].items()},
+                     model=fit.model, gap_before=gap_before, gap_after=fit.gap_after,
+                     added=True, n_evals=evaluator.n_evals - n0,
+                     seconds=time.perf_counter() - t0, effects=tuple(chosen))
+
+
+def _prune(evaluator, node, base: Model):
+    """Drop the effects of a combined model that no longer matter in it: back-fitting can
+    leave one at its base value, or make it redundant. An effect goes when the model without
+    it (its parameters back at their values in ``base``, or a trace effect removed) is within
+    ``COMBINE_MIN_GAIN`` of the model's gap."""
+    fit, chosen, params = node
+    for name in list(chosen):
+        if len(chosen) == 1:
+            break
+        e = get_effect(name)
+        if e.kind == "trace" and not e.is_active(base):
+            without = e.remove(fit.model)
+        elif e.kind == "planner" and not e.is_active(base) and e.option is not None:
+            without = e.remove(fit.model)
+        else:
+            without = e.apply(fit.model, e.check(e.current(base)))
+        g = evaluator.evaluate(without)
+        if g.gap <= fit.gap_after.gap * (1.0 + COMBINE_MIN_GAIN):
+            fit = replace(fit, model=without, gap_after=g)
+            chosen = tuple(c for c in chosen if c != name)
+            params = {k: v for k, v in params.items() if k != name}
+    return fit, chosen, params
+
+
+def _extend(evaluator, node, effect: str, fixed: Mapping):
+    """The node with ``effect`` added (its discrete choices ``fixed``), fitted, and the
+    effects already in re-fitted."""
+    current, chosen, params = node
+    trial = fit_effect(evaluator, current.model, effect, gap_before=current.gap_after, fixed=fixed,
+                       polish=False)
+    return trial, chosen + (effect,), {**params, effect: trial.params}
+
+
+def _backfit_node(evaluator, node):
+    """A node with all but its last effect re-fitted on top of the others (:func:`_backfit`)."""
+    fit, chosen, params = node
+    fit, params = _backfit(evaluator, fit, chosen[:-1], params, fit.gap_before)
+    return fit, chosen, params
+
+
+def _backfit(evaluator, trial: EffectFit, chosen, params, gap_before):
+    """Re-fit the effects already in the model, one at a time with the others held, once the
+    new one (``trial``) is in: an earlier fit made without it may sit at a bound (a corner
+    jump fitted before the acceleration that shapes the corner ramps). Discrete choices are
+    kept (they are the node's hypothesis). Returns the improved fit and every effect's
+    parameters."""
+    params = {**params, trial.effect: trial.params}
+    current = trial
+    gap_before = trial.gap_before if gap_before is None else gap_before
+    for name in chosen:
+        fixed = {p.name: params[name][p.name] for p in get_effect(name).params if p.kind == "choice"}
+        refit = fit_effect(evaluator, current.model, name, gap_before=gap_before, fixed=fixed,
+                           polish=False)
+        if refit.gap_after.gap < current.gap_after.gap:
+            current = refit
+            params[name] = refit.params
+    if current is not trial:
+        current = replace(trial, model=current.model, gap_after=current.gap_after,
+                          n_evals=trial.n_evals + current.n_evals)
+    return current, params
+
+
+def _label(effect: str, params: Mapping) -> str:
+    """An effect with the values of its discrete parameters: ``reset_mode[G64]``."""
+    choices = [str(params[p.name]) for p in get_effect(effect).params if p.kind == "choice"]
+    return effect + (f"[{','.join(choices)}]" if choices else "")
+
+
+def _labels(chosen, params) -> set:
+    return {_label(e, params[e]) for e in chosen}
+
+
+def _structure(chosen, params) -> frozenset:
+    """The discrete choices a model makes (its structural hypothesis)."""
+    return frozenset(label for label in _labels(chosen, params) if label.endswith("]"))
+
+
 def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base: str = "full",
              candidates: Sequence[str] | None = None, do_combine: bool = True,
              localisation: bool = True, align_options: Mapping | None = None,
              program: str = "", registration: Registration | None = None,
-             progress: Callable[[str], None] | None = None) -> Diagnosis:
+             progress: Callable[[str], None] | None = None, reinterpret=None,
+             recorder_window_ms: float | None = None) -> Diagnosis:
     """Diagnose the gap between ``measured`` and the ``base`` model of ``path`` on ``machine``
-    (module docstring). ``candidates`` defaults to every planner effect and the servo and
-    structure effects. ``registration`` places the samples on the path
+    (module docstring). ``candidates`` defaults to every planner effect and the servo,
+    structure and recorder effects. ``registration`` places the samples on the path
     (``ncsim.gap.register``; registered here when not given); ``progress`` is called with the
-    name of each fit as it begins."""
+    name of each fit as it begins. ``reinterpret(machine) -> Path`` interprets the program
+    again on another machine (``path`` is the program interpreted on ``machine``); without it
+    the effects that change the interpretation (``reset_mode``) are left out of the defaults.
+    ``recorder_window_ms``: the recorder's moving average when it is known (e.g. 20 ms for 10
+    samples at 500 Hz, ``effects.RECORDER_RAW_PERIOD_S``): the base model is compared after
+    it, and ``recorder`` re-fits it."""
     t0 = time.perf_counter()
     base_model = make_base(machine, base)
-    ev = Evaluator(path, measured, align_options=align_options, registration=registration)
+    notes = []
+    if recorder_window_ms is not None:
+        base_model = get_effect("recorder").apply(
+            base_model, {"samples": round(recorder_window_ms / s_to_ms(RECORDER_RAW_PERIOD_S))})
+        notes.append(f"models compared after the recorder's {recorder_window_ms:g} ms mean "
+                     "(the recording's known filter)")
+    ev = Evaluator(path, measured, align_options=align_options, registration=registration,
+                   reinterpret=reinterpret, path_key=interpretation_key(machine))
     before, al, mt = ev.evaluate(base_model, full=True)
-    cands = tuple(candidates) if candidates is not None else default_candidates()
+    if candidates is not None:
+        cands = tuple(candidates)
+    else:
+        cands = default_candidates()
+        if reinterpret is None:
+            cands = tuple(c for c in cands if c not in REINTERPRETING)
+            notes.append("reset_mode not tried: it needs the program to interpret it again")
     for c in cands:
         get_effect(c)
     fits = []
@@ -652,11 +715,14 @@ def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base:
         if progress is not None:
             progress(f"fit {c}")
         fits.append(fit_effect(ev, base_model, c, gap_before=before))
-    fits.sort(key=lambda f: f.gap_after.gap)
+    fits = rank_fits(share_values(ev, fits, base_model))
     if do_combine and progress is not None:
         progress("combine")
-    comb = combine(ev, fits, before) if do_combine else None
-    notes = []
+    comb = forward_select(ev, fits, before, base_model) if do_combine else None
+    ties = indistinguishable(fits)
+    if ties:
+        notes.append(f"{fits[0].effect}: on this trace as good as " + ", ".join(ties)
+                     + f" (gaps within {100 * TIE_SHARE:g} %)")
     loc_before = localise(al, mt, path, ev.scales, measured) if localisation else {}
     loc_after = None
     if localisation:

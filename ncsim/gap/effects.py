@@ -27,7 +27,15 @@ are closed forms that share no code with the time-stepping truth of ``ncsim.gap.
   ``c a_n`` along the principal normal (``a_n = V^2 / R``, paper eq. 1), the paper's
   "centrifugation" (§5.2, §6.2);
 * ``servo_delay``: a pure time delay (what a recording skew between command and actual, or a
-  dead time in the drive, looks like).
+  dead time in the drive, looks like);
+* ``recorder``: the recorder's centred mean of N raw samples before it down-samples
+  (:func:`sample_mean_mm`).
+
+The effects real machines differ by are planner effects on machine and operator settings
+(:class:`MachineValue`): the rapid and feed overrides, the axis velocity (MD32000) and
+accelerations (MD32300), the reset path mode with its exact-stop settle and G64 corner jump
+(MD20150, MD36010, MD20552, MD32310) and the G64 corner jump alone; each names its machine data
+and writes it back through the machine file.
 
 Units: parameters are in the units people set machines in (m/s^3, ms, 1/s, um per m/s^2) and
 say so in their names; everything is converted to mm and s at the boundary of ``apply``.
@@ -50,8 +58,10 @@ from ncsim.errors import UsageError
 from ncsim.machine import MachineSpec, StructureSpec
 from ncsim.motion import FULL_MODEL, ModelOptions
 from ncsim.path import BRISK, SOFT
-from ncsim.units import (m_s2_to_mm_s2, m_s3_to_mm_s3, mm_s2_to_m_s2, mm_s3_to_m_s3, ms_to_s,
-                         s2_to_um_per_m_s2, s_to_ms, um_per_m_s2_to_s2)
+from ncsim.machine import PATH_MODES, path_mode_name
+from ncsim.units import (m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_s2_to_m_s2, mm_s3_to_m_s3,
+                         mm_s_to_m_min, ms_to_s, percent_to_share, s2_to_um_per_m_s2, s_to_ms,
+                         share_to_percent, um_per_m_s2_to_s2)
 
 # ---------------------------------------------------------------------------------------------
 # Parameters and models
@@ -125,7 +135,9 @@ class Model:
         return (self.machine, self.options)
 
 
-POST_ORDER = ("servo_delay", "servo_lag", "compliance")
+#: trace effects in the order they act: the drives, the structure, then the recorder (which
+#: filters whatever it records, command or actual)
+POST_ORDER = ("servo_delay", "servo_lag", "compliance", "recorder")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -183,6 +195,56 @@ def delayed_mm(t_s: np.ndarray, pos_mm: np.ndarray, delay_s: float) -> np.ndarra
     t = np.asarray(t_s, dtype=np.float64)
     p = np.asarray(pos_mm, dtype=np.float64)
     return np.column_stack([np.interp(t - delay_s, t, p[:, k]) for k in range(p.shape[1])])
+
+
+#: the raw sample period of the recorder's stream (an 840D trace or Edge capture at 500 Hz)
+RECORDER_RAW_PERIOD_S = 2e-3
+
+
+def sample_mean_mm(t_s: np.ndarray, pos_mm: np.ndarray, samples: int,
+                   raw_period_s: float = RECORDER_RAW_PERIOD_S) -> np.ndarray:
+    """What a recorder writes that averages ``N`` raw samples of period ``h`` and stamps the
+    mean at the samples' mean time: ``y(t) = (1/N) sum_j x(t + (j - (N - 1)/2) h)``,
+    ``j = 0..N-1`` (10 samples at 500 Hz for KIT's 50 Hz data). Zero group delay; gain
+    ``|sin(pi f N h) / (N sin(pi f h))|``, first null at ``1 / (N h)``. ``x`` between the grid
+    points ``t_s`` is linear, and held at its first and last values outside (the axes rest
+    before and after)."""
+    t = np.asarray(t_s, dtype=np.float64)
+    x = np.asarray(pos_mm, dtype=np.float64)
+    n = int(samples)
+    if n <= 1 or len(t) < 2:
+        return x.copy()
+    out = np.zeros_like(x)
+    for j in range(n):
+        tq = t + (j - 0.5 * (n - 1)) * raw_period_s
+        for k in range(x.shape[1]):
+            out[:, k] += np.interp(tq, t, x[:, k])
+    return out / n
+
+
+def corner_jumps_mm_s(accel_mm_s2, overload_factor, ipo_cycle_s: float) -> np.ndarray:
+    """G64 corner law (840D B1 "continuous-path mode G64", MD32310 $MA_MAX_ACCEL_OVL_FACTOR):
+    the velocity jump axis i may make at a corner, ``A_i (f_i - 1) t_IPO``."""
+    return (np.asarray(overload_factor, dtype=np.float64) - 1.0) \
+        * np.asarray(accel_mm_s2, dtype=np.float64) * ipo_cycle_s
+
+
+def overload_factors_for(jumps_mm_s, accel_mm_s2, ipo_cycle_s: float) -> np.ndarray:
+    """MD32310 per axis that gives the axis velocity jumps ``jumps_mm_s``: the inverse of
+    :func:`corner_jumps_mm_s`, ``f_i = 1 + jump_i / (A_i t_IPO)``."""
+    return 1.0 + np.asarray(jumps_mm_s, dtype=np.float64) / (
+        np.asarray(accel_mm_s2, dtype=np.float64) * ipo_cycle_s)
+
+
+def _with_jumps(machine: MachineSpec, jumps_mm_s) -> MachineSpec:
+    """The machine with MD32310 set so that the axes jump by ``jumps_mm_s`` at G64 corners."""
+    return machine.with_axes(max_accel_ovl_factor=overload_factors_for(
+        jumps_mm_s, machine.max_accel_mm_s2, machine.ncu.ipo_cycle_s))
+
+
+def _jumps(machine: MachineSpec) -> np.ndarray:
+    return corner_jumps_mm_s(machine.max_accel_mm_s2, machine.max_accel_ovl_factor,
+                             machine.ncu.ipo_cycle_s)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -282,7 +344,8 @@ class CycleTimeLimit(Effect):
         return {"ipo_cycle_ms": s_to_ms(model.machine.ncu.ipo_cycle_s)}
 
     def apply_planner(self, machine, options, v):
-        m = machine.with_ncu(ipo_cycle_s=ms_to_s(v["ipo_cycle_ms"]))
+        # the G64 corner jump A (MD32310 - 1) t_IPO is corner_jump's parameter: keep it
+        m = _with_jumps(machine.with_ncu(ipo_cycle_s=ms_to_s(v["ipo_cycle_ms"])), _jumps(machine))
         return m, replace(options, cycle_time_limit=True)
 
 
@@ -359,6 +422,124 @@ class ServoDelay(Effect):
         return delayed_mm(t_s, pos_mm, ms_to_s(float(v["delay_ms"])))
 
 
+@dataclass(frozen=True)
+class MachineValue(Effect):
+    """A planner effect that is a machine or operator setting rather than a model switch: it
+    is "active" when the setting differs from its neutral value (``neutral`` of the first
+    parameter, e.g. 100 % override); ``remove`` restores the neutral value. Settings without a
+    neutral value (an axis velocity) are always active and cannot be removed."""
+
+    neutral: object = None
+
+    def is_active(self, model):
+        if self.neutral is None:
+            return True
+        return self.current(model)[self.params[0].name] != self.neutral
+
+    def remove(self, model):
+        if self.neutral is None:
+            return model
+        values = dict(self.current(model), **{self.params[0].name: self.neutral})
+        machine, options = self.apply_planner(model.machine, model.options, self.check(values))
+        return replace(model, machine=machine, options=options)
+
+
+@dataclass(frozen=True)
+class RapidOverride(MachineValue):
+    neutral: object = 100.0
+
+    def current(self, model):
+        return {"rapid_override_percent": share_to_percent(model.machine.ncu.rapid_override)}
+
+    def apply_planner(self, machine, options, v):
+        return machine.with_ncu(rapid_override=percent_to_share(v["rapid_override_percent"])), options
+
+
+@dataclass(frozen=True)
+class FeedOverride(MachineValue):
+    neutral: object = 100.0
+
+    def current(self, model):
+        return {"feed_override_percent": share_to_percent(model.machine.ncu.feed_override)}
+
+    def apply_planner(self, machine, options, v):
+        return machine.with_ncu(feed_override=percent_to_share(v["feed_override_percent"])), options
+
+
+@dataclass(frozen=True)
+class AxisVelocity(MachineValue):
+    def current(self, model):
+        return {"axis_velocity_m_min": mm_s_to_m_min(float(model.machine.max_velocity_mm_s[0]))}
+
+    def apply_planner(self, machine, options, v):
+        ratio = _plane_ratio(np.array(machine.max_velocity_mm_s))
+        return machine.with_axes(max_velocity_mm_s=m_min_to_mm_s(v["axis_velocity_m_min"]) * ratio), options
+
+
+@dataclass(frozen=True)
+class AxisAccel(MachineValue):
+    def current(self, model):
+        a = model.machine.max_accel_mm_s2
+        return {"xy_accel_m_s2": mm_s2_to_m_s2(float(a[0])), "z_accel_m_s2": mm_s2_to_m_s2(float(a[2]))}
+
+    def apply_planner(self, machine, options, v):
+        old = np.array(machine.max_accel_mm_s2)
+        x = m_s2_to_mm_s2(v["xy_accel_m_s2"])
+        new = np.array([x, x * old[1] / old[0], m_s2_to_mm_s2(v["z_accel_m_s2"])])
+        # the G64 corner jump A (MD32310 - 1) t_IPO is fitted on its own (corner_jump): keep it
+        return _with_jumps(machine.with_axes(max_accel_mm_s2=new), _jumps(machine)), options
+
+
+@dataclass(frozen=True)
+class ResetPathMode(MachineValue):
+    """Changes what the interpreter does (MD20150 is applied to the modal state), so a model
+    with another reset mode needs the program interpreted again (``diagnose.ModelCache``)."""
+
+    neutral: object = "G60"
+
+    def current(self, model):
+        ncu = model.machine.ncu
+        mode = path_mode_name(ncu.reset_path_mode)
+        return {"path_mode": mode if mode in RESET_MODE_CHOICES else "G64",
+                "settle_ms": s_to_ms(ncu.exact_stop_fine_settle_s),
+                **EFFECTS["corner_jump"].current(model)}
+
+    def apply_planner(self, machine, options, v):
+        mode = PATH_MODES[v["path_mode"]]
+        if mode == 64 and machine.ncu.reset_path_mode != 60:
+            mode = machine.ncu.reset_path_mode     # "continuous path": the machine's own G64x
+        m = machine.with_ncu(reset_path_mode=mode,
+                             exact_stop_fine_settle_s=ms_to_s(v["settle_ms"]),
+                             exact_pos_mode_g0_to_g1=1)
+        # the corner velocity is part of the continuous-path hypothesis (it changes nothing
+        # under exact stop, where every corner stops)
+        return EFFECTS["corner_jump"].apply_planner(m, options, v)
+
+
+@dataclass(frozen=True)
+class CornerJump(MachineValue):
+    def current(self, model):
+        return {"corner_jump_mm_s": float(_jumps(model.machine)[0])}
+
+    def apply_planner(self, machine, options, v):
+        # Y and Z keep their machine-file ratio to X (equal MD32310: in proportion to A)
+        now = _jumps(machine)
+        ratio = (now / now[0] if now[0] > 0
+                 else np.asarray(machine.max_accel_mm_s2) / machine.max_accel_mm_s2[0])
+        return _with_jumps(machine, v["corner_jump_mm_s"] * ratio), options
+
+
+class Recorder(Effect):
+    def current(self, model):
+        post = model.post_values(self.name) or {}
+        return {"samples": post.get("samples", 10)}
+
+    def apply_to_trace(self, trace, t_s, pos_mm, v):
+        return sample_mean_mm(t_s, pos_mm, int(v["samples"]))
+
+
+RESET_MODE_CHOICES = ("G60", "G64")
+
 EFFECTS: dict[str, Effect] = {e.name: e for e in (
     NcuPathJerk(
         "ncu_path_jerk", "NCU curvilinear-jerk limit",
@@ -410,6 +591,64 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
          Param("axis_accel_m_s2", "m/s^2", 0.2, 20.0, "maximum X-axis acceleration A_mx (Y and Z "
                "keep their machine-file ratio to X; paper: 2.5 m/s^2)")),
         option="accel_mode"),
+    RapidOverride(
+        "rapid_override", "rapid traverse at a lower speed (rapid override)",
+        "G0 runs at the axis-velocity limit along the line (MD32000 $MA_MAX_AX_VELO, eq. 7) "
+        "times the rapid-traverse override the operator or the PLC set (840D V1 \"rapid "
+        "traverse override\"). A recording made at 10 % override shows flat G0 plateaus at a "
+        "tenth of the machine's rapid rate; the feed blocks are unchanged.",
+        (Param("rapid_override_percent", "%", 1.0, 100.0, "rapid override in force "
+               "(machine file: [ncu] rapid_override_percent)"),)),
+    FeedOverride(
+        "feed_override", "feed override",
+        "G1/G2/G3 run at the programmed F times the feed override on the machine control "
+        "panel (840D V1 \"feed override\", 0-120 %); the axis and NCU limits still apply to "
+        "the overridden feed, so only blocks that reach F show it.",
+        (Param("feed_override_percent", "%", 10.0, 150.0, "feed override in force "
+               "(machine file: [ncu] feed_override_percent)"),)),
+    AxisVelocity(
+        "axis_velocity", "axis velocity limit",
+        "Every axis is limited to its maximum velocity (MD32000 $MA_MAX_AX_VELO), so a block's "
+        "feed is at most min_i V_mi / |u_i| (eq. 7): G0 runs there, and G1 blocks programmed "
+        "faster are capped. Unlike a rapid override it also caps fast feed blocks.",
+        (Param("axis_velocity_m_min", "m/min", 0.5, 120.0, "maximum X-axis velocity V_mx (Y and "
+               "Z keep their machine-file ratio to X)"),)),
+    AxisAccel(
+        "axis_accel", "axis acceleration",
+        "The acceleration the ramps and the normal acceleration on curves may use (MD32300 "
+        "$MA_MAX_AX_ACCEL, eq. 2, 8): tangential ramps at min_i A_mi / |t_i|, whatever the "
+        "acceleration mode the program selects (BRISK: at that acceleration; SOFT: jerk-"
+        "limited up to it). The plane axes X, Y and the infeed axis Z are fitted apart (a "
+        "vertical axis carries the head and often runs another acceleration); the G64 corner "
+        "jump is held (it is corner_jump's parameter).",
+        (Param("xy_accel_m_s2", "m/s^2", 0.05, 20.0, "maximum X-axis acceleration A_mx (Y keeps "
+               "its machine-file ratio to X)"),
+         Param("z_accel_m_s2", "m/s^2", 0.05, 20.0, "maximum Z-axis acceleration A_mz"))),
+    ResetPathMode(
+        "reset_mode", "exact stop or continuous path as the reset mode, with the settle time",
+        "Where a program sets no path mode the 840D runs its reset value (MD20150 "
+        "$MC_GCODE_RESET_VALUES, group 10): G60 stops at every block end and waits until the "
+        "axes are inside the exact-stop window (G601: MD36010 $MA_STOP_LIMIT_FINE), G64 keeps "
+        "the path speed across tangent junctions and slows at corners only (G64 corner law). "
+        "Under G64 a G0<->G1 change still stops in the window (MD20552 "
+        "$MC_EXACT_POS_MODE_G0_TO_G1 = 1). settle_ms is the time spent reaching the window. "
+        "A continuous-path hypothesis is only whole with its corner velocity, so the G64 axis "
+        "velocity jump (corner_jump) is fitted with it; it changes nothing under G60.",
+        (Param("path_mode", "", 0, 0, "group-10 reset value", kind="choice",
+               choices=RESET_MODE_CHOICES),
+         Param("settle_ms", "ms", 0.0, 100.0, "time standing in the exact-stop window after the "
+               "set point stops (machine file: exact_stop_fine_settle_ms)", log=False),
+         Param("corner_jump_mm_s", "mm/s", 0.1, 200.0, "velocity jump the X axis may make at a "
+               "G64 corner (as corner_jump)"))),
+    CornerJump(
+        "corner_jump", "corner velocity in continuous-path mode (G64 axis velocity jump)",
+        "At a G64 corner each axis may jump in velocity by A_i (MD32310 $MA_MAX_ACCEL_OVL_FACTOR "
+        "- 1) t_IPO (840D B1, continuous-path mode), so the corner is crossed at "
+        "V = min_i jump_i / |t2_i - t1_i|: a 90 deg corner at the X jump, 45 deg at jump / 0.765. "
+        "Acts only on corners run in continuous-path mode.",
+        (Param("corner_jump_mm_s", "mm/s", 0.1, 200.0, "velocity jump the X axis may make at a "
+               "corner (machine file: max_accel_ovl_factor = 1 + jump / (A t_IPO) per axis, "
+               "MD32310)"),)),
     ServoLag(
         "servo_lag", "servo lag: position loop Kv with or without feed forward",
         "The axes follow the set point through a P position loop of gain Kv with velocity "
@@ -439,12 +678,27 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
         "a simulated path (the alignment absorbs any delay); a candidate of the servo part only.",
         (Param("delay_ms", "ms", 0.0, 200.0, "d, the delay", log=False),),
         kind="trace", command_only=True),
+    Recorder(
+        "recorder", "recorder low-pass (moving average before down-sampling)",
+        "The recorder averages N raw samples before it keeps one (a 50 Hz trace made from "
+        "500 Hz: 10 samples, 20 ms, stamped at their mean time), which cuts corners and smears "
+        "ramps by about N h / 2. The model is compared after the same average of its samples "
+        "h = 2 ms apart (the 840D trace's 500 Hz). A delay of the recorded channel against the "
+        "NC clock is the alignment's clock offset (and between command and actual, "
+        "servo_delay).",
+        (Param("samples", "", 1, 64, "N, the raw samples averaged (window N x 2 ms)",
+               kind="int"),),
+        kind="trace"),
 )}
 
 #: planner effects, in the order the diagnosis lists them
 PLANNER_EFFECTS = tuple(n for n, e in EFFECTS.items() if e.kind == "planner")
 #: trace effects that act on a simulated path (the servo part adds ``servo_delay``)
 TRACE_EFFECTS = tuple(n for n, e in EFFECTS.items() if e.kind == "trace" and not e.command_only)
+#: what can shape a recorded command: the planner effects and the recorder's own filter
+COMMAND_EFFECTS = PLANNER_EFFECTS + ("recorder",)
+#: effects that change how the program is interpreted (they need the program, not a path)
+REINTERPRETING = ("reset_mode",)
 
 
 def get_effect(name: str) -> Effect:
@@ -461,8 +715,15 @@ def get_effect(name: str) -> Effect:
 AXIS_ONLY_OFF = ("ncu_path_jerk", "transition", "cycle_time", "lookahead")
 
 
+def removable(name: str) -> bool:
+    """A planner effect the model can be without (a switch, or a setting with a neutral
+    value), so that ``full-minus-NAME`` is a base."""
+    e = EFFECTS[name]
+    return e.kind == "planner" and (e.option is not None or getattr(e, "neutral", None) is not None)
+
+
 def base_names() -> tuple[str, ...]:
-    return ("full", "axis-only") + tuple(f"full-minus-{n}" for n in PLANNER_EFFECTS)
+    return ("full", "axis-only") + tuple(f"full-minus-{n}" for n in PLANNER_EFFECTS if removable(n))
 
 
 def make_base(machine: MachineSpec, base: str = "full") -> Model:
@@ -478,7 +739,7 @@ def make_base(machine: MachineSpec, base: str = "full") -> Model:
         return m
     if base.startswith("full-minus-"):
         name = base[len("full-minus-"):].replace("-", "_")
-        if name in EFFECTS and EFFECTS[name].kind == "planner":
+        if name in EFFECTS and removable(name):
             return EFFECTS[name].remove(full)
     raise UsageError(f"unknown base model {base!r} (known: {', '.join(base_names())})")
 

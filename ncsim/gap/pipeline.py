@@ -39,7 +39,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from ncsim.errors import MeasuredDataError, UsageError
-from ncsim.gap.effects import PLANNER_EFFECTS, Model, corrected_machine, get_effect
+from ncsim.gap.effects import COMMAND_EFFECTS, Model, corrected_machine, get_effect
 from ncsim.gap.measured import MeasuredTrace, detect_preset, load_measured_csv, load_umich_csv
 from ncsim.gap.register import Registration, rate_problem, register
 from ncsim.gap.summaryfile import load_measured_summary
@@ -47,6 +47,9 @@ from ncsim.machine import MachineSpec, dump_machine_toml, load_machine
 
 FORMATS = ("auto", "csv", "kit", "umich", "summary")
 MIN_PERIOD_S = 1e-3   # a trace sampled faster is averaged down to 1 ms (the model grid is 2 ms)
+#: the recorder's mean of known layouts (compared after it): the KIT data set's converter
+#: averages 10 samples of the 500 Hz Edge capture (20 ms) before keeping every 10th
+RECORDER_WINDOW_MS = {"kit": 20.0}
 
 
 @dataclass
@@ -153,6 +156,12 @@ def _machine_file_notes(name: str, params: Mapping) -> list[str]:
                 "(SOFT/BRISK), not by the machine file"]
     if name == "servo_lag" and float(params.get("ffw_weight", 0.0)) > 0:
         return [f"servo_lag ffw_weight {float(params['ffw_weight']):.3g}: no machine-file key"]
+    if name == "recorder":
+        return [f"recorder: a mean of {int(params['samples'])} raw samples, the recorder's filter, "
+                "not the machine's (no machine-file key)"]
+    if name in ("rapid_override", "feed_override"):
+        return [f"{name}: the operator-panel override of this recording, written as "
+                f"[ncu] {name}_percent; set it back to 100 for the machine's own rate"]
     if name == "servo_delay":
         return [f"servo_delay {float(params['delay_ms']):.3g} ms: no machine-file key"]
     return []
@@ -329,6 +338,11 @@ def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
     from ncsim.nc.interpret import interpret_file
     stages("interpret")
     path = interpret_file(programs[0], spec, setup_offsets=offsets or None).path
+
+    def reinterpret(m: MachineSpec):
+        """The program on a machine with another reset mode (the reset_mode effect)."""
+        return interpret_file(programs[0], m, setup_offsets=offsets or None).path
+
     stages("register")
     reg = register_trace(trace, path, spec, offsets)
     if not trace.has_command:
@@ -336,11 +350,12 @@ def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
         stages.expect(len(trace_cands) + (1 if combine else 0))
         d = diagnose_trace(path, spec, trace, base=base or "full", candidates=trace_cands,
                            do_combine=combine, program=programs[0], registration=reg,
-                           progress=stages)
+                           progress=stages, reinterpret=reinterpret,
+                           recorder_window_ms=RECORDER_WINDOW_MS.get(kind))
         return GapResult("trace", file, spec, planner=d, measured=trace, path=path,
                          registration=reg)
     from ncsim.gap.servo_part import diagnose_split
-    planner_cands = [c for c in (cands or default_candidates()) if c in PLANNER_EFFECTS]
+    planner_cands = [c for c in (cands or default_candidates()) if c in COMMAND_EFFECTS]
     if not planner_cands:
         raise UsageError("--effects names no planner effect for the planner part")
     stages.expect(len(planner_cands) + (1 if combine else 0)
@@ -348,6 +363,7 @@ def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
     split = diagnose_split(path, spec, trace, base=base or "full",
                            planner_candidates=planner_cands, servo_candidates=servo_cands or None,
                            do_combine=combine, program=programs[0], registration=reg,
-                           progress=stages)
+                           progress=stages, reinterpret=reinterpret,
+                           recorder_window_ms=RECORDER_WINDOW_MS.get(kind))
     return GapResult("split", file, spec, planner=split.planner, servo=split.servo,
                      measured=trace, path=path, registration=reg)

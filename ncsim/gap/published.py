@@ -39,7 +39,9 @@ import numpy as np
 
 from ncsim.gap.effects import Model, jsonable, get_effect, make_base, model_description
 from ncsim.errors import UsageError
-from ncsim.gap.diagnose import EffectFit, ModelCache, RankedFits, combine, default_candidates, fit_effect, shrink_percent
+from ncsim.gap.diagnose import ModelCache, RankedFits, combine, default_candidates
+from ncsim.gap.fit import EffectFit, fit_effect
+from ncsim.gap.metrics import shrink_percent
 from ncsim.nc.interpret import interpret_file
 from ncsim.gap.iso230 import circular_deviation
 from ncsim.machine import MachineSpec

@@ -151,7 +151,7 @@ _SUMMARY_UNITS = {"steady_feed": "mm/s", "max_feed_below": "mm/s", "normal_accel
 
 def format_summary(d, feed_unit: str = "mm/min") -> str:
     """A :class:`ncsim.gap.published.SummaryDiagnosis` as text, feeds in ``feed_unit``."""
-    from ncsim.gap.diagnose import shrink_percent
+    from ncsim.gap.metrics import shrink_percent
     g = d.gap_before
     lines = [f"gap diagnosis against published values: {d.source}, base model '{d.base}'",
              f"  {len(d.matches)} entries matched to program blocks"

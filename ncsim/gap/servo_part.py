@@ -45,7 +45,8 @@ from scipy.interpolate import CubicHermiteSpline
 
 from ncsim.gap.effects import EFFECTS, Model, jsonable, compliance_offset_mm, servo_lag_mm
 from ncsim.errors import UsageError
-from ncsim.gap.diagnose import fit_values, free_params, shrink_percent
+from ncsim.gap.fit import fit_values, free_params
+from ncsim.gap.metrics import shrink_percent
 from ncsim.machine import MachineSpec
 from ncsim.gap.measured import MeasuredTrace
 from ncsim.gap.lag import LagEstimate, estimate_lag, three_significant_figures_step_mm
@@ -343,12 +344,16 @@ def diagnose_split(path, machine: MachineSpec, measured: MeasuredTrace, *, base:
                    **diagnose_options) -> SplitDiagnosis:
     """Planner part (``diagnose.diagnose`` of the commanded positions with the planner effects as
     candidates) and servo part (:func:`diagnose_servo`) of a trace that has both."""
-    from ncsim.gap.effects import PLANNER_EFFECTS
+    from ncsim.gap.effects import COMMAND_EFFECTS, REINTERPRETING
     from ncsim.gap.diagnose import diagnose
     if not measured.has_command:
         raise UsageError(f"{measured.source}: splitting the gap needs commanded positions")
-    cands = list(planner_candidates) if planner_candidates is not None else list(PLANNER_EFFECTS)
-    bad = [c for c in cands if EFFECTS[c].kind != "planner"] if all(c in EFFECTS for c in cands) else []
+    if planner_candidates is not None:
+        cands = list(planner_candidates)
+    else:
+        cands = [c for c in COMMAND_EFFECTS
+                 if diagnose_options.get("reinterpret") is not None or c not in REINTERPRETING]
+    bad = [c for c in cands if c not in COMMAND_EFFECTS] if all(c in EFFECTS for c in cands) else []
     if bad:
         raise UsageError(f"{bad[0]} is not a planner effect: the command holds no servo effect")
     planner = diagnose(path, machine, measured.command(), base=base, candidates=cands,

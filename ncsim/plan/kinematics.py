@@ -219,6 +219,18 @@ def transition_feed_from_radii_mm_s(radius_before_mm, radius_after_mm, jerk_mm_s
 # (the rounding of G641-G645 is in ncsim.plan.blend)
 # ---------------------------------------------------------------------------------------------
 
+def overridden_feed_mm_s(feed_mm_s, feed_override) -> np.ndarray:
+    """The path feed the NC runs: programmed F times the feed override (840D V1 "feed
+    override", 0..120 % on the machine control panel; the axis limits still apply)."""
+    return np.asarray(feed_mm_s, dtype=np.float64) * feed_override
+
+
+def rapid_feed_mm_s(axis_velocity_limit_mm_s, rapid_override) -> np.ndarray:
+    """G0 path velocity: the axis-velocity limit along the line (MD32000 $MA_MAX_AX_VELO,
+    eq. 7) times the rapid-traverse override (840D V1 "rapid traverse override")."""
+    return np.asarray(axis_velocity_limit_mm_s, dtype=np.float64) * rapid_override
+
+
 def deflection_angle_rad(tangent_before, tangent_after) -> np.ndarray:
     """Angle between two unit tangents (0 = smooth, pi = reversal), robust near 0 and pi."""
     t1 = np.asarray(tangent_before, dtype=np.float64)

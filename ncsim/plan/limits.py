@@ -17,7 +17,8 @@ Lines (and rapid moves)
 -----------------------
 With ``u`` the unit direction::
 
-    cap   = min(F [programmed; G0: +inf],  min_i V_mi/|u_i| [axis_velocity],
+    cap   = min(F x feed override [programmed; G0: +inf, or the rapid override x
+                  min_i V_mi/|u_i| below 100 %],  min_i V_mi/|u_i| [axis_velocity],
                 L / t_cy [cycle_time, eq. 6, if options.cycle_time_limit])
     accel = min_i A_mi / |u_i|
     jerk  = min(J_tcurv [if options.ncu_path_jerk],  min_i J_mi / |u_i|)
@@ -96,7 +97,16 @@ dwell_before_s[k] > 0 -> DWELL; junctions 0 and n -> PROGRAM_END. Otherwise:
 
 ``junction_dwell_s[k]`` = dwell_before_s[k] + the exact-stop settle time when block k-1 ends in
 an exact stop (stop_window 601 -> ``exact_stop_fine_settle_s``, 602 -> coarse, 603 -> 0; any
-other value is treated as 601); junction n also gets ``path.end_dwell_s``.
+other value is treated as 601); junction n also gets ``path.end_dwell_s``. At a G0<->G1 change
+(where the planner always stops, above) the settle of the window MD20552
+``$MC_EXACT_POS_MODE_G0_TO_G1`` names is added when block k-1 has no exact stop of its own
+(``ncu.exact_pos_mode_g0_to_g1``: 1 G601 fine, 2 G602 coarse; 0 and 3 stop without waiting for
+a window, B1 §2.2 "exact stop at G0-G1 change").
+
+Overrides (``ncu.feed_override``, ``ncu.rapid_override``: what the operator panel held while a
+recording was made) scale the programmed feed of G1/G2/G3 blocks and the G0 velocity, which is
+the axis-velocity limit along the line (MD32000, eq. 7) times the rapid override; the axis
+limits still apply to the overridden feed.
 
 ``options.lookahead`` does not affect these limits (the planner applies the look-ahead).
 """
@@ -258,7 +268,9 @@ def _block_limits(path, lo, hi, machine, options, j_ncu, cand, cap, limit, accel
     blocks = slice(lo, hi)
     for v in cand.values():
         v.fill(np.inf)
-    cand["programmed"][:] = np.where(path.rapid[blocks], np.inf, path.feed_mm_s[blocks])
+    cand["programmed"][:] = np.where(path.rapid[blocks], np.inf,
+                                     kin.overridden_feed_mm_s(path.feed_mm_s[blocks],
+                                                              ncu.feed_override))
     if options.cycle_time_limit:
         cand["cycle_time"][:] = kin.cycle_time_feed_limit_mm_s(path.length_mm[blocks],
                                                                ncu.ipo_cycle_s)
@@ -270,6 +282,10 @@ def _block_limits(path, lo, hi, machine, options, j_ncu, cand, cap, limit, accel
         lines = lo + local
         v_axis, accel[lines], jerk_axis[local] = _line_limits(path, lines, machine)
         cand["axis_velocity"][local] = vmax[local] = v_axis
+        rapid = local[path.rapid[lines]]
+        if ncu.rapid_override < 1.0 and len(rapid):
+            cand["programmed"][rapid] = kin.rapid_feed_mm_s(cand["axis_velocity"][rapid],
+                                                            ncu.rapid_override)
         cap[lines], limit[lines] = _set_point(cand, local)
     local = np.flatnonzero(is_arc)
     if len(local):
@@ -349,11 +365,19 @@ def _settle_s(stop_window: np.ndarray, ncu) -> np.ndarray:
 
 def _junction_dwell(path, lo, hi, ncu, dwell) -> None:
     """Standing time at the junctions of blocks lo..hi-1: each block's dwell at its start, and
-    the exact-stop settle at the end of a block that stops exactly."""
+    the exact-stop settle at the end of a block that stops exactly; at a G0<->G1 change (where
+    the planner always stops) the settle of the window MD20552 names, when the block has no
+    exact stop of its own."""
     dwell[lo:hi] += path.dwell_before_s[lo:hi]
     stop = path.exact_stop[lo:hi]
     if np.any(stop):
         dwell[lo + 1:hi + 1] += np.where(stop, _settle_s(path.stop_window[lo:hi], ncu), 0.0)
+    if ncu.exact_pos_mode_g0_to_g1 in (1, 2):
+        last = min(hi, path.n - 1)
+        if last > lo:
+            g0g1 = (path.rapid[lo:last] != path.rapid[lo + 1:last + 1]) & ~path.exact_stop[lo:last]
+            window = np.full(last - lo, 600 + ncu.exact_pos_mode_g0_to_g1, dtype=np.int16)
+            dwell[lo + 1:last + 1] += np.where(g0g1, _settle_s(window, ncu), 0.0)
 
 
 def _block_frames(path, lo, hi, at_end):
