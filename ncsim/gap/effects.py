@@ -49,7 +49,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Mapping
+from typing import Callable, Mapping
 
 import numpy as np
 from scipy.signal import lfilter, lfilter_zi
@@ -247,13 +247,52 @@ def _jumps(machine: MachineSpec) -> np.ndarray:
                              machine.ncu.ipo_cycle_s)
 
 
+def _plane_ratio(values: np.ndarray) -> np.ndarray:
+    """Per-axis factors relative to X (Y and Z keep their machine-file ratio to X)."""
+    return values / values[0]
+
+
+@dataclass(frozen=True)
+class NcuSetting:
+    """The machine's ``[ncu]`` value ``field`` as a parameter: ``to_param`` converts it to the
+    parameter's unit, ``to_machine`` back."""
+
+    field: str
+    to_param: Callable = float
+    to_machine: Callable = float
+
+    def get(self, machine: MachineSpec):
+        return self.to_param(getattr(machine.ncu, self.field))
+
+    def set(self, machine: MachineSpec, value) -> MachineSpec:
+        return machine.with_ncu(**{self.field: self.to_machine(value)})
+
+
+@dataclass(frozen=True)
+class XAxisSetting:
+    """The X axis's value of the axis field ``field`` as a parameter (converted as
+    :class:`NcuSetting`); setting it, Y and Z keep their machine-file ratio to X."""
+
+    field: str
+    to_param: Callable = float
+    to_machine: Callable = float
+
+    def get(self, machine: MachineSpec):
+        return self.to_param(float(getattr(machine, self.field)[0]))
+
+    def set(self, machine: MachineSpec, value) -> MachineSpec:
+        ratio = _plane_ratio(np.array(getattr(machine, self.field)))
+        return machine.with_axes(**{self.field: self.to_machine(value) * ratio})
+
+
 # ---------------------------------------------------------------------------------------------
 # Effects
 # ---------------------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
 class Effect:
-    """Base of the library's effects (see the module docstring)."""
+    """Base of the library's effects (see the module docstring). A planner effect whose one
+    parameter is one machine value names it in ``setting`` and needs no class of its own."""
 
     name: str
     title: str
@@ -262,6 +301,7 @@ class Effect:
     kind: str = "planner"          # "planner" or "trace"
     option: str | None = None      # the ModelOptions switch of a planner effect
     command_only: bool = False     # only meaningful on command-vs-actual data (the servo part)
+    setting: NcuSetting | XAxisSetting | None = None   # the machine value of its parameter
 
     # -- common API --------------------------------------------------------------------------
     def param(self, name: str) -> Param:
@@ -292,7 +332,7 @@ class Effect:
         return bool(getattr(model.options, self.option))
 
     def current(self, model: Model) -> dict:
-        raise NotImplementedError
+        return {self.params[0].name: self.setting.get(model.machine)}
 
     def apply(self, model: Model, values: Mapping[str, object]) -> Model:
         v = self.check(values)
@@ -307,7 +347,11 @@ class Effect:
         return replace(model, options=replace(model.options, **{self.option: False}))
 
     def apply_planner(self, machine: MachineSpec, options: ModelOptions, values):
-        raise NotImplementedError
+        return self.setting.set(machine, values[self.params[0].name]), self.switched_on(options)
+
+    def switched_on(self, options: ModelOptions) -> ModelOptions:
+        """The planner options with this effect's switch on (a setting without one: as they are)."""
+        return options if self.option is None else replace(options, **{self.option: True})
 
     def apply_to_trace(self, trace, t_s: np.ndarray, pos_mm: np.ndarray, values) -> np.ndarray:
         raise NotImplementedError
@@ -327,50 +371,18 @@ class NcuPathJerk(Effect):
     def apply_planner(self, machine, options, v):
         share = machine.ncu.tangential_jerk_share
         m = machine.with_ncu(curvilinear_jerk_mm_s3=m_s3_to_mm_s3(v["j_tcurv_m_s3"]) / share)
-        return m, replace(options, ncu_path_jerk=True)
-
-
-class TransitionCrossing(Effect):
-    def current(self, model):
-        return {"transition_time_ms": s_to_ms(model.machine.ncu.transition_time_s)}
-
-    def apply_planner(self, machine, options, v):
-        m = machine.with_ncu(transition_time_s=ms_to_s(v["transition_time_ms"]))
-        return m, replace(options, transition_crossing=True)
+        return m, self.switched_on(options)
 
 
 class CycleTimeLimit(Effect):
-    def current(self, model):
-        return {"ipo_cycle_ms": s_to_ms(model.machine.ncu.ipo_cycle_s)}
-
     def apply_planner(self, machine, options, v):
         # the G64 corner jump A (MD32310 - 1) t_IPO is corner_jump's parameter: keep it
-        m = _with_jumps(machine.with_ncu(ipo_cycle_s=ms_to_s(v["ipo_cycle_ms"])), _jumps(machine))
-        return m, replace(options, cycle_time_limit=True)
+        m, options = super().apply_planner(machine, options, v)
+        return _with_jumps(m, _jumps(machine)), options
 
 
-def _plane_ratio(values: np.ndarray) -> np.ndarray:
-    """Per-axis factors relative to X (Y and Z keep their machine-file ratio to X)."""
-    return values / values[0]
-
-
-class AxisJerkRamps(Effect):
-    def current(self, model):
-        return {"axis_jerk_m_s3": mm_s3_to_m_s3(float(model.machine.max_jerk_mm_s3[0]))}
-
-    def apply_planner(self, machine, options, v):
-        ratio = _plane_ratio(np.array(machine.max_jerk_mm_s3))
-        m = machine.with_axes(max_jerk_mm_s3=m_s3_to_mm_s3(v["axis_jerk_m_s3"]) * ratio)
-        return m, replace(options, jerk_limited_ramps=True)
-
-
-class Lookahead(Effect):
-    def current(self, model):
-        return {"lookahead_blocks": int(model.machine.ncu.lookahead_blocks)}
-
-    def apply_planner(self, machine, options, v):
-        m = machine.with_ncu(lookahead_blocks=int(v["lookahead_blocks"]))
-        return m, replace(options, lookahead=True)
+#: the X-axis acceleration (MD32300), parameter of accel_mode
+X_AXIS_ACCEL = XAxisSetting("max_accel_mm_s2", mm_s2_to_m_s2, m_s2_to_mm_s2)
 
 
 class AccelMode(Effect):
@@ -380,14 +392,13 @@ class AccelMode(Effect):
     def current(self, model):
         mode = model.options.accel_mode
         name = {SOFT: "SOFT", BRISK: "BRISK"}.get(mode, "SOFT")
-        return {"mode": name, "axis_accel_m_s2": mm_s2_to_m_s2(float(model.machine.max_accel_mm_s2[0]))}
+        return {"mode": name, "axis_accel_m_s2": X_AXIS_ACCEL.get(model.machine)}
 
     def remove(self, model):
         return replace(model, options=replace(model.options, accel_mode=None))
 
     def apply_planner(self, machine, options, v):
-        ratio = _plane_ratio(np.array(machine.max_accel_mm_s2))
-        m = machine.with_axes(max_accel_mm_s2=m_s2_to_mm_s2(v["axis_accel_m_s2"]) * ratio)
+        m = X_AXIS_ACCEL.set(machine, v["axis_accel_m_s2"])
         return m, replace(options, accel_mode=ACCEL_MODE_CHOICES[v["mode"]])
 
 
@@ -442,38 +453,6 @@ class MachineValue(Effect):
         values = dict(self.current(model), **{self.params[0].name: self.neutral})
         machine, options = self.apply_planner(model.machine, model.options, self.check(values))
         return replace(model, machine=machine, options=options)
-
-
-@dataclass(frozen=True)
-class RapidOverride(MachineValue):
-    neutral: object = 100.0
-
-    def current(self, model):
-        return {"rapid_override_percent": share_to_percent(model.machine.ncu.rapid_override)}
-
-    def apply_planner(self, machine, options, v):
-        return machine.with_ncu(rapid_override=percent_to_share(v["rapid_override_percent"])), options
-
-
-@dataclass(frozen=True)
-class FeedOverride(MachineValue):
-    neutral: object = 100.0
-
-    def current(self, model):
-        return {"feed_override_percent": share_to_percent(model.machine.ncu.feed_override)}
-
-    def apply_planner(self, machine, options, v):
-        return machine.with_ncu(feed_override=percent_to_share(v["feed_override_percent"])), options
-
-
-@dataclass(frozen=True)
-class AxisVelocity(MachineValue):
-    def current(self, model):
-        return {"axis_velocity_m_min": mm_s_to_m_min(float(model.machine.max_velocity_mm_s[0]))}
-
-    def apply_planner(self, machine, options, v):
-        ratio = _plane_ratio(np.array(machine.max_velocity_mm_s))
-        return machine.with_axes(max_velocity_mm_s=m_min_to_mm_s(v["axis_velocity_m_min"]) * ratio), options
 
 
 @dataclass(frozen=True)
@@ -549,22 +528,22 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
         (Param("j_tcurv_m_s3", "m/s^3", 0.5, 60.0, "J_curv x r_jct, the tangential jerk the NCU "
                "allows on a curved path (paper: 10 x 0.6 = 6 m/s^3)"),),
         option="ncu_path_jerk"),
-    TransitionCrossing(
+    Effect(
         "transition", "curvature-jump transition crossing",
         "Between tangent blocks whose curvature jumps, the feed drops to "
         "V_fr = sqrt(R1 R2 J_t dt / |R1 - R2|) (paper eq. 13) with J_t from the axis jerks at the "
         "junction's direction (eq. 15): the jump in normal acceleration must take dt.",
         (Param("transition_time_ms", "ms", 0.5, 100.0, "dt of eq. 13, the time allowed to cross "
                "the curvature jump (paper: one interpolation cycle, 12 ms)"),),
-        option="transition_crossing"),
+        option="transition_crossing", setting=NcuSetting("transition_time_s", s_to_ms, ms_to_s)),
     CycleTimeLimit(
         "cycle_time", "interpolation-cycle limit",
         "Every block lasts at least one interpolation cycle: V_tcy = L / t_cy (paper eq. 6), "
         "which caps the feed on short blocks. t_cy also sets the G64 corner velocity jump and "
         "the BRISK jerk.",
         (Param("ipo_cycle_ms", "ms", 0.5, 100.0, "t_cy, the interpolation cycle (paper: 12 ms)"),),
-        option="cycle_time_limit"),
-    AxisJerkRamps(
+        option="cycle_time_limit", setting=NcuSetting("ipo_cycle_s", s_to_ms, ms_to_s)),
+    Effect(
         "axis_jerk", "axis-jerk-limited phases A/C",
         "Phases A and C of the feed law are controlled-jerk ramps at the smallest tangential jerk "
         "the axes allow on the block (paper §5.2.2, eq. 9, 16: the acceleration rises and falls "
@@ -572,15 +551,16 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
         "steady feed (eq. 4) and the transition feeds (eq. 15).",
         (Param("axis_jerk_m_s3", "m/s^3", 0.3, 200.0, "maximum X-axis jerk J_mx (Y and Z keep "
                "their machine-file ratio to X; paper: 5 m/s^3)"),),
-        option="jerk_limited_ramps"),
-    Lookahead(
+        option="jerk_limited_ramps",
+        setting=XAxisSetting("max_jerk_mm_s3", mm_s3_to_m_s3, m_s3_to_mm_s3)),
+    Effect(
         "lookahead", "limited look-ahead depth",
         "The NC prepares only D blocks ahead and must be able to stop at the end of the last "
         "one (840D dynamic look-ahead, paper §3.2): on short blocks the feed is capped by the "
         "braking distance over D blocks, ramps up inside each block and falls back.",
         (Param("lookahead_blocks", "blocks", 1, 128, "D, the number of blocks prepared ahead",
                kind="int"),),
-        option="lookahead"),
+        option="lookahead", setting=NcuSetting("lookahead_blocks", int, int)),
     AccelMode(
         "accel_mode", "acceleration mode BRISK against SOFT",
         "SOFT ramps the feed at controlled jerk (paper §3.3.2, Fig. 3); BRISK at the full axis "
@@ -591,28 +571,31 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
          Param("axis_accel_m_s2", "m/s^2", 0.2, 20.0, "maximum X-axis acceleration A_mx (Y and Z "
                "keep their machine-file ratio to X; paper: 2.5 m/s^2)")),
         option="accel_mode"),
-    RapidOverride(
+    MachineValue(
         "rapid_override", "rapid traverse at a lower speed (rapid override)",
         "G0 runs at the axis-velocity limit along the line (MD32000 $MA_MAX_AX_VELO, eq. 7) "
         "times the rapid-traverse override the operator or the PLC set (840D V1 \"rapid "
         "traverse override\"). A recording made at 10 % override shows flat G0 plateaus at a "
         "tenth of the machine's rapid rate; the feed blocks are unchanged.",
         (Param("rapid_override_percent", "%", 1.0, 100.0, "rapid override in force "
-               "(machine file: [ncu] rapid_override_percent)"),)),
-    FeedOverride(
+               "(machine file: [ncu] rapid_override_percent)"),),
+        setting=NcuSetting("rapid_override", share_to_percent, percent_to_share), neutral=100.0),
+    MachineValue(
         "feed_override", "feed override",
         "G1/G2/G3 run at the programmed F times the feed override on the machine control "
         "panel (840D V1 \"feed override\", 0-120 %); the axis and NCU limits still apply to "
         "the overridden feed, so only blocks that reach F show it.",
         (Param("feed_override_percent", "%", 10.0, 150.0, "feed override in force "
-               "(machine file: [ncu] feed_override_percent)"),)),
-    AxisVelocity(
+               "(machine file: [ncu] feed_override_percent)"),),
+        setting=NcuSetting("feed_override", share_to_percent, percent_to_share), neutral=100.0),
+    MachineValue(
         "axis_velocity", "axis velocity limit",
         "Every axis is limited to its maximum velocity (MD32000 $MA_MAX_AX_VELO), so a block's "
         "feed is at most min_i V_mi / |u_i| (eq. 7): G0 runs there, and G1 blocks programmed "
         "faster are capped. Unlike a rapid override it also caps fast feed blocks.",
         (Param("axis_velocity_m_min", "m/min", 0.5, 120.0, "maximum X-axis velocity V_mx (Y and "
-               "Z keep their machine-file ratio to X)"),)),
+               "Z keep their machine-file ratio to X)"),),
+        setting=XAxisSetting("max_velocity_mm_s", mm_s_to_m_min, m_min_to_mm_s)),
     AxisAccel(
         "axis_accel", "axis acceleration",
         "The acceleration the ramps and the normal acceleration on curves may use (MD32300 "
