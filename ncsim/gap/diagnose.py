@@ -512,12 +512,19 @@ def combine(evaluator, fits: Sequence[EffectFit], gap_before,
             current = trial
             chosen.append(f.effect)
             params[f.effect] = trial.params
+    return _combined(chosen, params, current, gap_before, evaluator.n_evals - n0,
+                     time.perf_counter() - t0)
+
+
+def _combined(chosen, params, fit: EffectFit, gap_before, n_evals: int,
+              seconds: float) -> EffectFit | None:
+    """The fit of the model ``fit`` as one that combines the effects ``chosen`` (whose
+    parameters are ``params[effect]``); None for a single effect (no combination)."""
     if len(chosen) == 1:
         return None
     return EffectFit(effect="+".join(chosen), params={k: v for e in chosen for k, v in params[e].items()},
-                     model=current.model, gap_before=gap_before, gap_after=current.gap_after,
-                     added=True, n_evals=evaluator.n_evals - n0,
-                     seconds=time.perf_counter() - t0, effects=tuple(chosen))
+                     model=fit.model, gap_before=gap_before, gap_after=fit.gap_after,
+                     added=True, n_evals=n_evals, seconds=seconds, effects=tuple(chosen))
 
 
 def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, base: Model, *,
@@ -589,12 +596,7 @@ def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, base: Model
         if beam[0][0].gap_after.gap < best[0].gap_after.gap:
             best = beam[0]
     fit, chosen, params = _prune(evaluator, best, base)
-    if len(chosen) == 1:
-        return None
-    return EffectFit(effect="+".join(chosen), params={k: v for e in chosen for k, v in params[e].items()},
-                     model=fit.model, gap_before=gap_before, gap_after=fit.gap_after,
-                     added=True, n_evals=evaluator.n_evals - n0,
-                     seconds=time.perf_counter() - t0, effects=tuple(chosen))
+    return _combined(chosen, params, fit, gap_before, evaluator.n_evals - n0, time.perf_counter() - t0)
 
 
 def _prune(evaluator, node, base: Model):
