@@ -24,7 +24,7 @@ the transition feeds and is not identifiable from them alone.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -33,6 +33,7 @@ from ncsim.gap.diagnose import ModelCache
 from ncsim.machine import MachineSpec
 from ncsim.gap.measured import MeasuredTrace
 from ncsim.path import Path
+from ncsim.gap.truth.draw import EffectDraw
 from ncsim.gap.truth.servo import ServoParams, simulate_servo
 from ncsim.gap.truth.synth import ScopeConfig, degrade
 from ncsim.units import s_to_ms, um_per_m_s2_to_s2
@@ -49,13 +50,10 @@ STRUCTURE_DAMPING = 0.2
 
 
 @dataclass(frozen=True)
-class CaseKind:
-    """How to draw one effect's truth: parameter name -> (low, high, scale) with scale
-    ``"log"``, ``"lin"`` or ``"int"``; fixed extra values; the base the diagnosis starts from."""
+class CaseKind(EffectDraw):
+    """How to draw one effect's truth (:class:`~ncsim.gap.truth.draw.EffectDraw`) and the base
+    the diagnosis starts from."""
 
-    effect: str
-    ranges: dict
-    fixed: dict = field(default_factory=dict)
     base: str = "full"
 
 
@@ -94,14 +92,6 @@ class Case:
                           "dropout_burst": s.dropout_burst}}
 
 
-def _draw(rng: np.random.Generator, low, high, scale):
-    if scale == "int":
-        return int(rng.integers(int(low), int(high) + 1))
-    if scale == "log":
-        return float(np.exp(rng.uniform(math.log(low), math.log(high))))
-    return float(rng.uniform(low, high))
-
-
 def random_scope(rng: np.random.Generator) -> ScopeConfig:
     """An oscilloscope: period log-uniform 1-12 ms, noise 0.3-2 um, increment 0.1/0.5/1 um (at
     most the noise), clock offset -1..1 s, zero offset -5..5 mm per axis, 0-5 % dropouts in
@@ -120,9 +110,7 @@ def draw_case(rng: np.random.Generator, index: int, kind: str | None = None) -> 
     """A random case (the effect drawn uniformly among :data:`CASE_KINDS` unless given)."""
     kinds = list(CASE_KINDS)
     k = CASE_KINDS[kind if kind is not None else kinds[int(rng.integers(len(kinds)))]]
-    params = {name: _draw(rng, *spec) for name, spec in k.ranges.items()}
-    params.update(k.fixed)
-    return Case(index=index, effect=k.effect, params=params, base=k.base,
+    return Case(index=index, effect=k.effect, params=k.draw(rng), base=k.base,
                 scope=random_scope(rng), lead_s=float(rng.uniform(0.1, 0.4)),
                 seed=int(rng.integers(2 ** 31)))
 

@@ -22,12 +22,12 @@ KIT); for the ``recorder`` kind the window is the withheld effect and is not giv
 """
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ncsim.gap.measured import MeasuredTrace
+from ncsim.gap.truth.draw import EffectDraw
 from ncsim.gap.truth.plain import PlainMachine, plan_plain, sample_plain
 from ncsim.machine import MachineSpec
 from ncsim.nc.interpret import interpret_file
@@ -42,13 +42,10 @@ N_PASSES = 3
 
 
 @dataclass(frozen=True)
-class IndependentKind:
-    """How to draw one effect's truth: parameter -> (low, high, scale), fixed values, and
-    whether the machine runs continuous path (truth and the diagnosis's start alike)."""
+class IndependentKind(EffectDraw):
+    """How to draw one effect's truth (:class:`~ncsim.gap.truth.draw.EffectDraw`) and whether
+    the machine runs continuous path (truth and the diagnosis's start alike)."""
 
-    effect: str
-    ranges: dict
-    fixed: dict = field(default_factory=dict)
     g64: bool = False
 
 
@@ -94,19 +91,10 @@ class IndependentCase:
                 "truth": "independent (ncsim.gap.truth.plain)"}
 
 
-def _draw(rng, low, high, scale):
-    if scale == "log":
-        return float(np.exp(rng.uniform(math.log(low), math.log(high))))
-    if scale == "int":
-        return int(rng.integers(int(low), int(high) + 1))
-    return float(rng.uniform(low, high))
-
-
 def draw_independent_case(rng: np.random.Generator, index: int, effect: str,
                           condition: str) -> IndependentCase:
     k = INDEPENDENT_KINDS[effect]
-    params = {name: _draw(rng, *spec) for name, spec in k.ranges.items()}
-    params.update(k.fixed)
+    params = k.draw(rng)
     machine_coords = condition in ("machine", "kit")
     offset = (tuple(float(v) for v in rng.uniform([-500, -500, 0], [500, 500, 500]))
               if machine_coords else tuple(float(v) for v in rng.uniform(-5.0, 5.0, 3)))
