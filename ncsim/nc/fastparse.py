@@ -47,15 +47,9 @@ def _skip_ws(buf, pos, end):
 
 
 @njit(cache=True, nogil=True)
-def _read_number(buf, pos, end, pow10):
-    """Read ``[+-](digits[.digits]|.digits)`` at pos. Returns (ok, value, new_pos)."""
-    neg = False
-    if pos < end and (buf[pos] == _PLUS or buf[pos] == _MINUS):
-        neg = buf[pos] == _MINUS
-        pos += 1
-    mantissa = 0
-    sig = 0
-    decimals = 0
+def _read_digits(buf, pos, end, mantissa, sig):
+    """Append the digits at pos to ``mantissa`` (``sig`` significant digits so far; leading
+    zeros are not significant). Returns (new_pos, mantissa, sig, digits read)."""
     digits = 0
     while pos < end and _is_digit(buf[pos]):
         d = buf[pos] - 48
@@ -64,16 +58,21 @@ def _read_number(buf, pos, end, pow10):
             mantissa = mantissa * 10 + d
         digits += 1
         pos += 1
-    if pos < end and buf[pos] == _DOT:
+    return pos, mantissa, sig, digits
+
+
+@njit(cache=True, nogil=True)
+def _read_number(buf, pos, end, pow10):
+    """Read ``[+-](digits[.digits]|.digits)`` at pos. Returns (ok, value, new_pos)."""
+    neg = False
+    if pos < end and (buf[pos] == _PLUS or buf[pos] == _MINUS):
+        neg = buf[pos] == _MINUS
         pos += 1
-        while pos < end and _is_digit(buf[pos]):
-            d = buf[pos] - 48
-            if sig > 0 or d != 0:
-                sig += 1
-                mantissa = mantissa * 10 + d
-            digits += 1
-            decimals += 1
-            pos += 1
+    pos, mantissa, sig, digits = _read_digits(buf, pos, end, 0, 0)
+    decimals = 0
+    if pos < end and buf[pos] == _DOT:
+        pos, mantissa, sig, decimals = _read_digits(buf, pos + 1, end, mantissa, sig)
+        digits += decimals
     if digits == 0 or sig > _MAX_SIG_DIGITS or decimals > _MAX_DECIMALS:
         return False, 0.0, pos
     if pos < end and buf[pos] == _DOT:  # "1.2.3": Lark would fail on the second dot
