@@ -62,18 +62,23 @@ def _job_with_a_subprogram(folder):
     (folder / "UNUSED.SPF").write_text("this is not even a program\n")
 
 
+def _local_cluster():
+    """Two worker processes; the scheduler's HTTP server (started even without a dashboard, at
+    8787 by default) on a free port, so that clusters of concurrent test runs do not collide."""
+    import distributed
+    return distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                    dashboard_address="127.0.0.1:0")
+
+
 def test_dask_workers_elsewhere_get_the_program_text(mikron, tmp_path, monkeypatch):
     """Workers started in another folder (as on other machines) cannot read the client's
     relative paths: they get each program, and the subprograms it calls, as text."""
-    import distributed
-
     from ncsim.pipeline import program_source
 
     elsewhere = tmp_path / "worker_home"
     elsewhere.mkdir()
     monkeypatch.chdir(elsewhere)        # the workers start here ...
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
+    with _local_cluster() as cluster:
         monkeypatch.chdir(tmp_path)     # ... the client reads from here
         _job_with_a_subprogram(tmp_path / "job")
         jobs = ["job/main.mpf", "job/missing.mpf"]
@@ -87,9 +92,7 @@ def test_dask_workers_elsewhere_get_the_program_text(mikron, tmp_path, monkeypat
 
 
 def test_dask_local_cluster_gives_the_same_results(mikron):
-    import distributed
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
+    with _local_cluster() as cluster:
         dask_results = run_batch(PROGRAMS, mikron, scheduler=cluster.scheduler_address)
     local = [simulate_one(p, mikron) for p in PROGRAMS]
     assert [r.program for r in dask_results] == PROGRAMS
