@@ -163,6 +163,25 @@ def test_every_ncsim_example_runs_as_written_on_the_shipped_files(readme, repo_r
             assert f"gives the whole program {cycle}" in " ".join(gap_text.split())
 
 
+def test_example_recording_is_what_its_script_makes(readme, repo_root, tmp_path):
+    """The gap section's example recordings are made, as their headers and the README say, by
+    ``benchmarks/make_example_trace.py`` (an independent truth, seeded): made again, the
+    same bytes."""
+    import importlib.util
+    script = repo_root / "benchmarks" / "make_example_trace.py"
+    spec = importlib.util.spec_from_file_location("make_example_trace", script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    made = {"gap_passes_scope.csv": tmp_path / "scope.csv",
+            "gap_passes_scope_um.csv": tmp_path / "scope_um.csv"}
+    assert module.main(["--out", str(made["gap_passes_scope.csv"]),
+                        "--out-um", str(made["gap_passes_scope_um.csv"])]) == 0
+    for name, file in made.items():
+        assert file.read_bytes() == (repo_root / "measured" / name).read_bytes(), \
+            f"measured/{name} is not what {script.name} makes: run it and refresh the README"
+        assert f"measured/{name}" in section(readme, "Sim-to-real gap diagnosis")
+
+
 def _output_after(text: str, command: str) -> str:
     """The ```text block that follows the ```sh block holding ``command``."""
     i = text.index(command)
