@@ -129,6 +129,16 @@ def test_partial_recording_names_blocks_pass_and_offset(notch):
     assert set(notch["path"].line[r.segment]) == {5, 6, 7, 8, 9}
 
 
+def test_a_recording_of_several_passes_names_them_all(notch):
+    """From pass 1's contour to pass 3's: not 'pass 2 of 3' (its middle sample's pass)."""
+    sel = rows_of(notch, 6, 0.1, 13 + 5, 0.9)       # line 6: G1 X20 of pass 1; 18: pass 3's
+    r = register(notch["q"][sel], notch["path"], signal="command")
+    assert r.status == "ok", r.message
+    assert r.passes_spanned == (1, 3) and r.covered().endswith("passes 1 to 3 of 3")
+    one = register(notch["q"][rows_of(notch, 5, 0.4, 9, 0.9)], notch["path"], signal="command")
+    assert one.passes_spanned is None and one.covered().endswith("pass 1 of 3")
+
+
 @pytest.mark.parametrize("rate_hz", [10.0, 200.0])
 def test_any_rate(notch, rate_hz):
     sel = rows_of(notch, 5, 0.4, 9, 0.6)
@@ -225,5 +235,5 @@ def test_ncsim_gap_refuses_to_guess_the_pass(notch, tmp_path):
     offset = ",".join(f"{v:.6f}" for v in OFFSET_MM)
     r = CliRunner().invoke(cli, args + ["--work-offset", f"G54={offset}"])
     assert r.exit_code == 0, r.output
-    assert "notch3.mpf:9 (G1 X-10 Y40) at 90 % to notch3.mpf:11 (G1 X20) at 50 %, pass 2 of 3" \
+    assert "notch3.mpf:9 (G1 X-10 Y40) at 90 % to notch3.mpf:11 (G1 X20) at 50 %, passes 1 to 2 of 3" \
         in r.output

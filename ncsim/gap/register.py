@@ -145,6 +145,7 @@ class Registration:
     candidates: tuple[Candidate, ...] = ()
     ambiguous_passes: tuple[int, ...] = ()
     notes: tuple[str, ...] = field(default=())
+    passes_spanned: tuple[int, int] | None = None   # first and last pass when it spans several
 
     @property
     def ok(self) -> bool:
@@ -178,6 +179,8 @@ class Registration:
         if self.first is None or self.last is None:
             return ""
         passes = f", pass {self.pass_index} of {self.n_passes}" if self.n_passes > 1 else ""
+        if self.passes_spanned is not None:
+            passes = f", passes {self.passes_spanned[0]} to {self.passes_spanned[1]} of {self.n_passes}"
         return f"{self.first.label()} to {self.last.label()}{passes}"
 
     def as_dict(self) -> dict:
@@ -190,6 +193,8 @@ class Registration:
                 "first": None if self.first is None else self.first.as_dict(),
                 "last": None if self.last is None else self.last.as_dict(),
                 "covered": self.covered(), "pass": self.pass_index, "passes": self.n_passes,
+                "passes_spanned": (None if self.passes_spanned is None
+                                   else list(self.passes_spanned)),
                 "candidates": [c.as_dict() for c in self.candidates],
                 "notes": list(self.notes)}
 
@@ -453,6 +458,28 @@ def repeat_index(path: Path, k: int, tol_mm: float = 1e-6) -> tuple[int, int]:
     return int(np.searchsorted(index, k)) + 1, int(len(index))
 
 
+def passes_spanned(path: Path, segments: np.ndarray, pass_index: int, n_passes: int,
+                   look: int = 64) -> tuple[int, int] | None:
+    """``(first, last)`` pass of a repeated contour that a recording spans (``segments``: its
+    samples' segments in recording order), when it spans more than one. Blocks that are not
+    repeated as often (an approach, a plunge of another depth) are passed over: the first and
+    last of the ``look`` blocks nearest each end that are repeated ``n_passes`` times decide."""
+    if n_passes <= 1 or len(segments) == 0:
+        return None
+    _, first_seen = np.unique(segments, return_index=True)
+    visited = segments[np.sort(first_seen)]
+
+    def pass_of_nearest(seq) -> int:
+        for k in seq[:look]:
+            i, n = repeat_index(path, int(k))
+            if n == n_passes:
+                return i
+        return pass_index
+
+    first, last = pass_of_nearest(visited), pass_of_nearest(visited[::-1])
+    return (first, last) if first != last else None
+
+
 def _fits_as_well(a: Candidate, b: Candidate, noise: float) -> bool:
     tol = 1e-4 + 3.0 * noise
     return (a.rms_mm <= EQUAL_FIT * b.rms_mm + tol and a.max_mm <= EQUAL_FIT * b.max_mm + tol
@@ -522,11 +549,19 @@ def register(q_mm, path: Path, *, signal: str = "actual", offset_mm=None,
     pass_index, n_passes = repeat_index(path, int(tr.segment[mid]))
     k_last = int(np.argmax(tr.s))
     at_junction = 1e-3 + 3.0 * noise
+    first = _place(path, float(tr.s[0]), int(tr.segment[0]), at_junction, +1)
+    last = _place(path, float(tr.s[k_last]), int(tr.segment[k_last]), at_junction, -1)
+    spanned_segments = tr.segment[:k_last + 1]
+    if first.fraction >= 0.999:           # at rest at the end of a block: not in that pass
+        spanned_segments = spanned_segments[spanned_segments != spanned_segments[0]]
+    if last.fraction <= 0.001 and len(spanned_segments):
+        spanned_segments = spanned_segments[spanned_segments != spanned_segments[-1]]
+    spanned = passes_spanned(path, spanned_segments, pass_index, n_passes)
     common = dict(signal=signal, offset_mm=best.offset_mm, offset_source=source, s_mm=tr.s,
                   segment=tr.segment, distance_mm=tr.distance, noise_mm=noise,
-                  first=_place(path, float(tr.s[0]), int(tr.segment[0]), at_junction, +1),
-                  last=_place(path, float(tr.s[k_last]), int(tr.segment[k_last]), at_junction, -1),
-                  pass_index=pass_index, n_passes=n_passes, candidates=tuple(cands))
+                  first=first, last=last,
+                  pass_index=pass_index, n_passes=n_passes, candidates=tuple(cands),
+                  passes_spanned=spanned)
     if rivals:
         found = sorted([(pass_index, best.offset_mm)]
                        + [(repeat_index(path, int(evaluated[i][1].segment[mid]))[0],
