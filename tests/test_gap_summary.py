@@ -106,6 +106,14 @@ def test_the_share_follows_the_data(mikron, paths, table3):
     assert s2 > s1 + 0.03
 
 
+def test_the_radial_side_is_tried_second_among_all_candidates(diagnosis):
+    """``combine`` tries a few effects only: the planner effects that explain the same feeds
+    (axis jerk, acceleration, velocity) must not crowd out the best radial one."""
+    order = [f.effect for f in combination_order(diagnosis.fits, diagnosis.gap_before)]
+    assert order[:2] == ["ncu_path_jerk", "compliance"]
+    assert len(order) > 4      # more than combine's tries: the order matters
+
+
 def test_combined_model_and_json(diagnosis, paths):
     fits = {f.effect: f for f in diagnosis.fits}
     order = combination_order([fits["compliance"], fits["ncu_path_jerk"], fits["transition"]],

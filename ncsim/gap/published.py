@@ -286,7 +286,10 @@ def combination_order(fits: Sequence[EffectFit], before: SummaryGap) -> list[Eff
     rad = sorted((f for f in fits if get_effect(f.effect).kind == "trace"
                   and f.gap_after.radial_rms_um < before.radial_rms_um * 0.995),
                  key=lambda f: f.gap_after.radial_rms_um)
-    return kin + rad
+    # the best of each side first: ``combine`` tries only a few, and the planner effects that
+    # all explain the same feeds (axis jerk, acceleration, velocity) must not crowd out the
+    # radial side
+    return kin[:1] + rad[:1] + kin[1:] + rad[1:]
 
 
 def load_programs(programs: Sequence[str], machine: MachineSpec) -> dict[str, Path]:
