@@ -93,3 +93,102 @@ def test_programmed_places_of_a_rounded_square(mikron):
     after = places.programmed_block(blends, places.programmed_s_mm(mid + eps))
     assert list(before) == [0, 1, 2] and list(after) == [1, 2, 3]
     assert places.rounded_s_mm(places.programmed_s_mm(mid)) == pytest.approx(mid)
+
+
+# --- the compressor effect ----------------------------------------------------------------------
+
+def _cam_raster(step_mm=0.05, length_mm=12.0, feed=3000, r_mm=1.5, arcs=10):
+    """CAM-like finishing: two passes of tiny G1 blocks (step_mm) along a gentle wave, turned
+    round by a semicircle of short arcs (arcs are never compressed, MD20482 hundreds digit 0).
+    No compressor is selected: the machine's reset value decides."""
+    lines = ["N10 G90 G17 G64 SOFT", "N20 G0 X0 Y0 Z0", f"N30 G1 F{feed}"]
+    xs = np.arange(int(round(length_mm / step_mm)) + 1) * step_mm
+    for x in xs[1:]:
+        lines.append(f"X{x:.4f} Y{0.3 * math.sin(x / 3.0):.4f}")
+    xe = xs[-1]
+    lines.append("Y0")
+    for i in range(1, arcs + 1):                    # centre (xe, r), counter-clockwise
+        a = -math.pi / 2 + math.pi * i / arcs
+        a0 = -math.pi / 2 + math.pi * (i - 1) / arcs
+        lines.append(f"G3 X{xe + r_mm * math.cos(a):.4f} Y{r_mm + r_mm * math.sin(a):.4f} "
+                     f"I{-r_mm * math.cos(a0):.4f} J{-r_mm * math.sin(a0):.4f}")
+    for x in xs[::-1][1:]:
+        lines.append(f"G1 X{x:.4f} Y{2 * r_mm + 0.3 * math.sin(x / 3.0):.4f}")
+    lines.append("M30")
+    return "\n".join(lines) + "\n"
+
+
+def test_compressor_on_is_found_on_a_cam_raster(mikron):
+    """A raster of 0.05 mm G1 blocks at F3000 on a machine whose reset compressor is COMPCAD
+    (the recording) against a model without it: without the compressor every 0.05 mm block
+    takes at least an interpolation cycle (eq. 6: 0.05 mm / 12 ms = 4.2 mm/s), with it the run
+    is one polynomial block at F. The diagnosis must name the compressor, and COMPCAD, whose
+    joined run is not capped like COMPON's 10 blocks (0.5 mm / 12 ms = 42 mm/s), rather than
+    a shorter interpolation cycle, which would also speed up the short arcs."""
+    from ncsim.gap.diagnose import diagnose
+    from ncsim.gap.effects import get_effect
+    from ncsim.gap.truth.synth import ScopeConfig, degrade
+
+    text = _cam_raster()
+    reinterpret = lambda m: interpret_text(text, "raster.mpf", m).path   # noqa: E731
+    path = reinterpret(mikron)
+    assert mikron.ncu.reset_compressor == 0 and path.n > 400
+    truth = get_effect("compressor").apply(make_base(mikron), {"compressor_mode": "COMPCAD"})
+    t, tr, _, _ = ModelCache(reinterpret(truth.machine), dt_s=1e-3,
+                             settle_s=0.3).setpoint(truth)
+    meas = degrade(t, tr.pos_mm, ScopeConfig(period_s=2e-3, noise_um=0.5), seed=2)
+    d = diagnose(path, mikron, meas, reinterpret=reinterpret, do_combine=False,
+                 localisation=False)
+    best = d.fits[0]
+    assert best.effect == "compressor" and best.params == {"compressor_mode": "COMPCAD"}
+    assert best.shrink_percent >= 80.0
+    runner_up = d.fits[1]
+    assert runner_up.gap_after.gap > 10 * best.gap_after.gap
+
+
+def test_compressor_is_inert_without_short_blocks(mikron):
+    """A rectangle of blocks longer than MD20170 (20 mm): no block is compressed, so the
+    compressor changes nothing -- it neither shrinks the gap of a recording made at 80 % feed
+    override nor counts as sensitive -- while the override explains it."""
+    from ncsim.gap.effects import get_effect
+    from ncsim.gap.fit import fit_effect
+    from ncsim.gap.truth.synth import ScopeConfig, degrade
+
+    text = ("N10 G90 G17 G64 SOFT\nN20 G0 X0 Y0 Z0\nN30 G1 X60 F6000\nN40 Y40\nN50 X0\n"
+            "N60 Y0\nN70 M30\n")
+    reinterpret = lambda m: interpret_text(text, "rect.mpf", m).path   # noqa: E731
+    path = reinterpret(mikron)
+    base = make_base(mikron)
+    truth = get_effect("feed_override").apply(base, {"feed_override_percent": 80.0})
+    t, tr, _, _ = ModelCache(path, dt_s=1e-3, settle_s=0.3).setpoint(truth)
+    meas = degrade(t, tr.pos_mm, ScopeConfig(period_s=2e-3, noise_um=0.5), seed=4)
+    ev = Evaluator(path, meas, reinterpret=reinterpret,
+                   path_key=(mikron.ncu.reset_path_mode, mikron.ncu.reset_compressor))
+    before = ev.evaluate(base)
+    comp = fit_effect(ev, base, "compressor", gap_before=before)
+    assert not comp.sensitive and comp.gap_after.gap == pytest.approx(before.gap, rel=1e-12)
+    override = fit_effect(ev, base, "feed_override", gap_before=before)
+    assert override.shrink_percent >= 80.0
+
+
+def test_reset_compressor_is_the_start_of_group_30(mikron):
+    """``[ncu] reset_compressor`` (MD20150, group 30) is the compressor of a program that
+    selects none; COMPOF in the program still switches it off; the key round-trips through the
+    machine file and a wrong value is named."""
+    import tomllib
+
+    from ncsim.errors import MachineSpecError
+    from ncsim.machine import dump_machine_toml, machine_from_dict
+
+    text = "N10 G1 X0.1 F3000\nN20 X0.2\nN30 COMPOF\nN40 X0.3\nN50 M30\n"
+    cad = mikron.with_ncu(reset_compressor=3)
+    comp = interpret_text(text, "c.mpf", cad).path.compressor
+    assert list(np.abs(comp)) == [3, 3, 0]
+    assert list(interpret_text(text, "c.mpf", mikron).path.compressor) == [0, 0, 0]
+    back = machine_from_dict(tomllib.loads(dump_machine_toml(cad)))
+    assert back.ncu.reset_compressor == 3
+    data = tomllib.loads(dump_machine_toml(mikron))
+    bad = {**data, "ncu": {**data["ncu"], "reset_compressor": "COMPFOO"}}
+    with pytest.raises(MachineSpecError) as err:
+        machine_from_dict(bad, "m.toml")
+    assert "m.toml: ncu.reset_compressor: must be one of COMPOF" in str(err.value)

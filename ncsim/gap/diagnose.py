@@ -117,10 +117,10 @@ class ModelTrace:
 
 
 def interpretation_key(machine: MachineSpec) -> tuple:
-    """What the interpreter takes from the machine that an effect may change: the group-10
-    reset value (MD20150, ``effects.ResetPathMode``). Models that differ here need the program
-    interpreted again."""
-    return (machine.ncu.reset_path_mode,)
+    """What the interpreter takes from the machine that an effect may change: the group-10 and
+    group-30 reset values (MD20150, ``effects.ResetPathMode``, ``effects.CompressorMode``).
+    Models that differ here need the program interpreted again."""
+    return (machine.ncu.reset_path_mode, machine.ncu.reset_compressor)
 
 
 class ModelCache:
@@ -710,7 +710,8 @@ def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base:
     (``ncsim.gap.register``; registered here when not given); ``progress`` is called with the
     name of each fit as it begins. ``reinterpret(machine) -> Path`` interprets the program
     again on another machine (``path`` is the program interpreted on ``machine``); without it
-    the effects that change the interpretation (``reset_mode``) are left out of the defaults.
+    the effects that change the interpretation (``reset_mode``, ``compressor``) are left out of
+    the defaults.
     ``recorder_window_ms``: the recorder's moving average when it is known (e.g. 20 ms for 10
     samples at 500 Hz, ``effects.RECORDER_RAW_PERIOD_S``): the base model is compared after
     it, and ``recorder`` re-fits it."""
@@ -731,7 +732,8 @@ def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base:
         cands = default_candidates()
         if reinterpret is None:
             cands = tuple(c for c in cands if c not in REINTERPRETING)
-            notes.append("reset_mode not tried: it needs the program to interpret it again")
+            notes.append(f"{', '.join(REINTERPRETING)} not tried: they need the program to "
+                         "interpret it again")
     for c in cands:
         get_effect(c)
     fits = []
