@@ -513,34 +513,18 @@ class CornerJump(MachineValue):
 COMPRESSOR_CHOICES = ("COMPOF", "COMPON", "COMPCURV", "COMPCAD")
 
 
-def with_compressor(machine: MachineSpec, mode: str) -> MachineSpec:
-    """The machine with the NC block compressor ``mode`` as the reset value of G group 30
-    (MD20150 $MC_GCODE_RESET_VALUES: what a program runs where it selects no COMPON/COMPCURV/
-    COMPCAD/COMPOF itself; 840D sl Job Planning "NC block compression", B1 "Compressor
-    functions"). With the compressor on, runs of short G1 blocks (each at most MD20170
-    $MC_COMPRESS_BLOCK_PATH_LIMIT long) are planned as one smooth curve within the axis
-    tolerances MD33100 $MA_COMPRESS_POS_TOL (MD20482 $MC_COMPRESSOR_MODE units digit 0): eq. 6
-    applies to the joined polynomial block (10 blocks for COMPON/COMPCURV, the whole run for
-    COMPCAD), and the kinks between the blocks become the curvature of the curve
-    (``ncsim.plan.compressor``). The tolerance is the machine file's: it only moves the
-    curve by micrometres, which the feed of a CAM raster does not show."""
-    return machine.with_ncu(reset_compressor=COMPRESSOR_CODES[mode])
+def compressor_code(mode: str) -> int:
+    """The group-30 reset value (MD20150 $MC_GCODE_RESET_VALUES) that runs the NC block
+    compressor ``mode`` where a program selects none (840D sl Job Planning "NC block
+    compression", B1 "Compressor functions"; its physics in ``ncsim.plan.compressor``). The
+    tolerance MD33100 stays the machine file's: it moves the curve by micrometres only."""
+    return COMPRESSOR_CODES[mode]
 
 
-@dataclass(frozen=True)
-class CompressorMode(MachineValue):
-    """Changes what the interpreter does (the group-30 reset value is the compressor each
-    block carries), so a model with another compressor needs the program interpreted again
-    (``diagnose.ModelCache``)."""
-
-    neutral: object = "COMPOF"
-
-    def current(self, model):
-        name = COMPRESSOR_NAMES[model.machine.ncu.reset_compressor]
-        return {"compressor_mode": "COMPCAD" if name == "COMPSURF" else name}
-
-    def apply_planner(self, machine, options, v):
-        return with_compressor(machine, v["compressor_mode"]), options
+def compressor_mode(code: int) -> str:
+    """The inverse of :func:`compressor_code` (COMPSURF is simulated as COMPCAD)."""
+    name = COMPRESSOR_NAMES[int(code)]
+    return "COMPCAD" if name == "COMPSURF" else name
 
 
 class Recorder(Effect):
@@ -658,19 +642,18 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
                "set point stops (machine file: exact_stop_fine_settle_ms)", log=False),
          Param("corner_jump_mm_s", "mm/s", 0.1, 200.0, "velocity jump the X axis may make at a "
                "G64 corner (as corner_jump)"))),
-    CompressorMode(
+    MachineValue(
         "compressor", "NC block compressor on or off (COMPON/COMPCURV/COMPCAD)",
         "Where a program selects no compressor the 840D runs the reset value of G group 30 "
-        "(MD20150 $MC_GCODE_RESET_VALUES; COMPOF as delivered). With COMPON/COMPCURV (up to 10 "
-        "blocks per polynomial) or COMPCAD (any number, corners above SD42470 kept) runs of "
-        "short G1 blocks no longer than MD20170 become one smooth curve within the axis "
-        "tolerance MD33100 $MA_COMPRESS_POS_TOL (MD20482 $MC_COMPRESSOR_MODE): eq. 6 limits the "
-        "joined block, not each 0.1 mm block, and the kinks between blocks become curvature, so "
-        "CAM output of tiny blocks runs at its F instead of crawling. Changes nothing on a "
-        "program without short G1 blocks.",
+        "(MD20150 $MC_GCODE_RESET_VALUES; COMPOF as delivered). With COMPON/COMPCURV (10 blocks "
+        "per polynomial) or COMPCAD (any number, corners above SD42470 kept) runs of G1 blocks "
+        "no longer than MD20170 become one curve within MD33100 $MA_COMPRESS_POS_TOL (MD20482 "
+        "$MC_COMPRESSOR_MODE): eq. 6 limits the joined block, not each tiny block, and the kinks "
+        "become curvature. Changes nothing on a program without short G1 blocks.",
         (Param("compressor_mode", "", 0, 0, "group-30 reset value (machine file: [ncu] "
-               "reset_compressor)",
-               kind="choice", choices=COMPRESSOR_CHOICES),)),
+               "reset_compressor)", kind="choice", choices=COMPRESSOR_CHOICES),),
+        setting=NcuSetting("reset_compressor", compressor_mode, compressor_code),
+        neutral="COMPOF"),
     CornerJump(
         "corner_jump", "corner velocity in continuous-path mode (G64 axis velocity jump)",
         "At a G64 corner each axis may jump in velocity by A_i (MD32310 $MA_MAX_ACCEL_OVL_FACTOR "
