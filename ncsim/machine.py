@@ -77,6 +77,7 @@ class NcuSpec:
     compress_block_path_limit_mm: float = 20.0  # MD20170 $MC_COMPRESS_BLOCK_PATH_LIMIT (B1's recommendation)
     crit_spline_angle_rad: float = deg_to_rad(36.0)  # SD42470 $SC_CRIT_SPLINE_ANGLE (B1 recommends 36 deg)
     reset_path_mode: int = 60                 # MD20150 $MC_GCODE_RESET_VALUES, group 10 (60, 64, 641..645)
+    reset_compressor: int = COMPOF            # MD20150 $MC_GCODE_RESET_VALUES, group 30 (COMPOF..COMPSURF)
     exact_pos_mode_g0_to_g1: int = 0          # MD20552: stop window at G0<->G1 changes (0 none, 1 G601, 2 G602, 3 G603)
     rapid_override: float = 1.0               # rapid-traverse override in force (share of the G0 velocity)
     feed_override: float = 1.0                # path-feed override in force (share of the programmed F)
@@ -275,7 +276,7 @@ _NCU_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
 )
 #: [ncu] keys that are not plain numbers (read in machine_from_dict)
 _NCU_OTHER_KEYS = ("smoothing_mode", "ignore_ovl_factor_for_adis", "reset_path_mode",
-                   "exact_pos_mode_g0_to_g1")
+                   "exact_pos_mode_g0_to_g1", "reset_compressor")
 #: keys of earlier versions: what replaced them
 _REPLACED_KEYS = {
     ("ncu", "corner_velocity_jump_factor"):
@@ -373,6 +374,12 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
             ncu_values["reset_path_mode"] = PATH_MODES[reset.upper()]
         else:
             c.add("ncu.reset_path_mode", f"must be one of {', '.join(PATH_MODES)}, got {reset!r}")
+    comp = c.string(ntab, "ncu", "reset_compressor")
+    if comp is not None:
+        if comp.upper() in COMPRESSOR_CODES:
+            ncu_values["reset_compressor"] = COMPRESSOR_CODES[comp.upper()]
+        else:
+            c.add("ncu.reset_compressor", f"must be one of {', '.join(COMPRESSOR_CODES)}, got {comp!r}")
     g0g1 = c.integer(ntab, "ncu", "exact_pos_mode_g0_to_g1", minimum=0, maximum=3)
     if g0g1 is not None:
         ncu_values["exact_pos_mode_g0_to_g1"] = g0g1
@@ -582,6 +589,7 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
               f"compress_block_path_limit_mm = {_f(n.compress_block_path_limit_mm)}  # MD20170",
               f"crit_spline_angle_deg = {_f(rad_to_deg(n.crit_spline_angle_rad))}  # SD42470",
               f"reset_path_mode = {_q(path_mode_name(n.reset_path_mode))}  # MD20150 $MC_GCODE_RESET_VALUES (group 10)",
+              f"reset_compressor = {_q(COMPRESSOR_NAMES[n.reset_compressor])}  # MD20150 $MC_GCODE_RESET_VALUES (group 30)",
               f"exact_pos_mode_g0_to_g1 = {n.exact_pos_mode_g0_to_g1}  # MD20552 $MC_EXACT_POS_MODE_G0_TO_G1",
               f"rapid_override_percent = {_f(share_to_percent(n.rapid_override))}  # rapid-traverse override in force",
               f"feed_override_percent = {_f(share_to_percent(n.feed_override))}  # feed override in force"]

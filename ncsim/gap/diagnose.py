@@ -85,6 +85,7 @@ from ncsim.gap.metrics import (SLOWEST_FEED_SHARE, SPEED_WINDOW_S, GapMetrics, G
                                compare_speed_mm_s, gap_metrics, gap_scales, rms)
 from ncsim.gap.register import Registration, register
 from ncsim.path import ARC, Path
+from ncsim.plan.blend import ProgrammedPlaces
 from ncsim.plan.lookahead import plan
 from ncsim.plan.sample import sample_motion
 from ncsim.units import mm_to_um, s_to_ms
@@ -116,10 +117,10 @@ class ModelTrace:
 
 
 def interpretation_key(machine: MachineSpec) -> tuple:
-    """What the interpreter takes from the machine that an effect may change: the group-10
-    reset value (MD20150, ``effects.ResetPathMode``). Models that differ here need the program
-    interpreted again."""
-    return (machine.ncu.reset_path_mode,)
+    """What the interpreter takes from the machine that an effect may change: the group-10 and
+    group-30 reset values (MD20150, ``effects.ResetPathMode``, ``effects.CompressorMode``).
+    Models that differ here need the program interpreted again."""
+    return (machine.ncu.reset_path_mode, machine.ncu.reset_compressor)
 
 
 class ModelCache:
@@ -133,7 +134,11 @@ class ModelCache:
 
     ``s_window_mm = (lo, hi)``: only the stretch of the motion from ``WINDOW_MARGIN_S`` before
     it reaches path length ``lo`` to as long after ``hi`` is sampled (a recording that covers
-    part of a long program needs no more; sampling is most of an evaluation's cost)."""
+    part of a long program needs no more; sampling is most of an evaluation's cost).
+
+    Traces speak of the programmed path: where G641-G645 insert rounding blocks, the samples'
+    path length and block are mapped back onto the programmed blocks
+    (``blend.ProgrammedPlaces``), the terms of the registration and of ``path.line``."""
 
     def __init__(self, path: Path, dt_s: float = MODEL_DT_S, settle_s: float = SETTLE_S,
                  max_plans: int = 64, *, reinterpret=None, path_key: tuple | None = None,
@@ -182,17 +187,24 @@ class ModelCache:
         hit = self._plans.get(key)
         if hit is not None:
             return hit
-        motion = plan(self.path_for(model.machine), model.machine, model.options,
-                      limits=self.limits(model))
+        path, limits = self.path_for(model.machine), self.limits(model)
+        motion = plan(path, model.machine, model.options, limits=limits)
+        # G641-G645 insert rounding blocks: the trace speaks of the programmed blocks and places
+        places = (None if limits.row_of is None
+                  else ProgrammedPlaces.of(path, motion.path, limits.row_of))
         total = motion.total_time_s
         n = int(math.ceil((total + self.settle_s) / self.dt_s)) + 1
         t = np.arange(n) * self.dt_s
         if self.s_window_mm is not None:
             # piece start times against piece start lengths: monotone, close enough for a
             # window with WINDOW_MARGIN_S to spare
-            t_lo, t_hi = np.interp(self.s_window_mm, motion.piece_s_mm, motion.piece_t_s[:-1])
+            s_window = (self.s_window_mm if places is None
+                        else places.rounded_s_mm(self.s_window_mm))
+            t_lo, t_hi = np.interp(s_window, motion.piece_s_mm, motion.piece_t_s[:-1])
             t = t[(t >= t_lo - WINDOW_MARGIN_S) & (t <= t_hi + WINDOW_MARGIN_S + self.settle_s)]
         tr = sample_motion(motion, t_s=np.minimum(t, total))
+        if places is not None:
+            tr = programmed_trace(tr, places, path)
         if len(self._plans) >= self.max_plans:
             self._plans.pop(next(iter(self._plans)))
         self._plans[key] = (t, tr, total, motion)
@@ -220,6 +232,16 @@ class ModelCache:
 
     def motion(self, model: Model):
         return self.setpoint(model)[3]
+
+
+def programmed_trace(trace, places: ProgrammedPlaces, path: Path):
+    """A planner :class:`~ncsim.motion.Trace` of a path with rounding blocks, its path length,
+    block and line in the programmed ``path``'s terms (``blend.ProgrammedPlaces``), as the
+    registration places a recording."""
+    s_mm = places.programmed_s_mm(trace.s_mm)
+    block = places.programmed_block(trace.block, s_mm)
+    return replace(trace, s_mm=s_mm, block=block.astype(trace.block.dtype),
+                   line=path.line[block].astype(trace.line.dtype))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -688,7 +710,8 @@ def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base:
     (``ncsim.gap.register``; registered here when not given); ``progress`` is called with the
     name of each fit as it begins. ``reinterpret(machine) -> Path`` interprets the program
     again on another machine (``path`` is the program interpreted on ``machine``); without it
-    the effects that change the interpretation (``reset_mode``) are left out of the defaults.
+    the effects that change the interpretation (``reset_mode``, ``compressor``) are left out of
+    the defaults.
     ``recorder_window_ms``: the recorder's moving average when it is known (e.g. 20 ms for 10
     samples at 500 Hz, ``effects.RECORDER_RAW_PERIOD_S``): the base model is compared after
     it, and ``recorder`` re-fits it."""
@@ -709,7 +732,8 @@ def diagnose(path: Path, machine: MachineSpec, measured: MeasuredTrace, *, base:
         cands = default_candidates()
         if reinterpret is None:
             cands = tuple(c for c in cands if c not in REINTERPRETING)
-            notes.append("reset_mode not tried: it needs the program to interpret it again")
+            notes.append(f"{', '.join(REINTERPRETING)} not tried: they need the program to "
+                         "interpret it again")
     for c in cands:
         get_effect(c)
     fits = []

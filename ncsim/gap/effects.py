@@ -34,8 +34,9 @@ are closed forms that share no code with the time-stepping truth of ``ncsim.gap.
 The effects real machines differ by are planner effects on machine and operator settings
 (:class:`MachineValue`): the rapid and feed overrides, the axis velocity (MD32000) and
 accelerations (MD32300), the reset path mode with its exact-stop settle and G64 corner jump
-(MD20150, MD36010, MD20552, MD32310) and the G64 corner jump alone; each names its machine data
-and writes it back through the machine file.
+(MD20150, MD36010, MD20552, MD32310), the G64 corner jump alone and the compressor on or off
+(MD20150 group 30); each names its machine data and writes it back through the
+machine file.
 
 Units: parameters are in the units people set machines in (m/s^3, ms, 1/s, um per m/s^2) and
 say so in their names; everything is converted to mm and s at the boundary of ``apply``.
@@ -57,8 +58,8 @@ from scipy.signal import lfilter, lfilter_zi
 from ncsim.errors import UsageError
 from ncsim.machine import MachineSpec, StructureSpec
 from ncsim.motion import FULL_MODEL, ModelOptions
-from ncsim.path import BRISK, SOFT
-from ncsim.machine import PATH_MODES, path_mode_name
+from ncsim.path import BRISK, COMPRESSOR_NAMES, SOFT
+from ncsim.machine import COMPRESSOR_CODES, PATH_MODES, path_mode_name
 from ncsim.units import (m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_s2_to_m_s2, mm_s3_to_m_s3,
                          mm_s_to_m_min, ms_to_s, percent_to_share, s2_to_um_per_m_s2, s_to_ms,
                          share_to_percent, um_per_m_s2_to_s2)
@@ -508,6 +509,24 @@ class CornerJump(MachineValue):
         return _with_jumps(machine, v["corner_jump_mm_s"] * ratio), options
 
 
+#: the group-30 values the compressor effect chooses among (COMPSURF is simulated as COMPCAD)
+COMPRESSOR_CHOICES = ("COMPOF", "COMPON", "COMPCURV", "COMPCAD")
+
+
+def compressor_code(mode: str) -> int:
+    """The group-30 reset value (MD20150 $MC_GCODE_RESET_VALUES) that runs the NC block
+    compressor ``mode`` where a program selects none (840D sl Job Planning "NC block
+    compression", B1 "Compressor functions"; its physics in ``ncsim.plan.compressor``). The
+    tolerance MD33100 stays the machine file's: it moves the curve by micrometres only."""
+    return COMPRESSOR_CODES[mode]
+
+
+def compressor_mode(code: int) -> str:
+    """The inverse of :func:`compressor_code` (COMPSURF is simulated as COMPCAD)."""
+    name = COMPRESSOR_NAMES[int(code)]
+    return "COMPCAD" if name == "COMPSURF" else name
+
+
 class Recorder(Effect):
     def current(self, model):
         post = model.post_values(self.name) or {}
@@ -623,6 +642,18 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
                "set point stops (machine file: exact_stop_fine_settle_ms)", log=False),
          Param("corner_jump_mm_s", "mm/s", 0.1, 200.0, "velocity jump the X axis may make at a "
                "G64 corner (as corner_jump)"))),
+    MachineValue(
+        "compressor", "NC block compressor on or off (COMPON/COMPCURV/COMPCAD)",
+        "Where a program selects no compressor the 840D runs the reset value of G group 30 "
+        "(MD20150 $MC_GCODE_RESET_VALUES; COMPOF as delivered). With COMPON/COMPCURV (10 blocks "
+        "per polynomial) or COMPCAD (any number, corners above SD42470 kept) runs of G1 blocks "
+        "no longer than MD20170 become one curve within MD33100 $MA_COMPRESS_POS_TOL (MD20482 "
+        "$MC_COMPRESSOR_MODE): eq. 6 limits the joined block, not each tiny block, and the kinks "
+        "become curvature. Changes nothing on a program without short G1 blocks.",
+        (Param("compressor_mode", "", 0, 0, "group-30 reset value (machine file: [ncu] "
+               "reset_compressor)", kind="choice", choices=COMPRESSOR_CHOICES),),
+        setting=NcuSetting("reset_compressor", compressor_mode, compressor_code),
+        neutral="COMPOF"),
     CornerJump(
         "corner_jump", "corner velocity in continuous-path mode (G64 axis velocity jump)",
         "At a G64 corner each axis may jump in velocity by A_i (MD32310 $MA_MAX_ACCEL_OVL_FACTOR "
@@ -681,7 +712,7 @@ TRACE_EFFECTS = tuple(n for n, e in EFFECTS.items() if e.kind == "trace" and not
 #: what can shape a recorded command: the planner effects and the recorder's own filter
 COMMAND_EFFECTS = PLANNER_EFFECTS + ("recorder",)
 #: effects that change how the program is interpreted (they need the program, not a path)
-REINTERPRETING = ("reset_mode",)
+REINTERPRETING = ("reset_mode", "compressor")
 
 
 def get_effect(name: str) -> Effect:

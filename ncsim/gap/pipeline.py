@@ -340,7 +340,7 @@ def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
     path = interpret_file(programs[0], spec, setup_offsets=offsets or None).path
 
     def reinterpret(m: MachineSpec):
-        """The program on a machine with another reset mode (the reset_mode effect)."""
+        """The program on a machine with other reset values (reset_mode, compressor)."""
         return interpret_file(programs[0], m, setup_offsets=offsets or None).path
 
     stages("register")

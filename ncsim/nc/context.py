@@ -211,9 +211,10 @@ class InterpreterState:
         ncu = machine.ncu if machine is not None else None
         self.circle_const_mm = ncu.circle_error_const_mm if ncu else DEFAULT_CIRCLE_ERROR_CONST_MM
         self.circle_factor = ncu.circle_error_factor if ncu else DEFAULT_CIRCLE_ERROR_FACTOR
-        # never replaced: collaborators keep a reference; group 10 starts at the machine's
-        # reset value (MD20150 $MC_GCODE_RESET_VALUES)
-        self.st = ModalState(cp_mode=ncu.reset_path_mode) if ncu else ModalState()
+        # never replaced: collaborators keep a reference; groups 10 (path mode) and 30
+        # (compressor) start at the machine's reset values (MD20150 $MC_GCODE_RESET_VALUES)
+        self.st = (ModalState(cp_mode=ncu.reset_path_mode, compressor=ncu.reset_compressor)
+                   if ncu else ModalState())
         # the reset values CYCLE832's deselection returns to (MD20150 $MC_GCODE_RESET_VALUES)
         self.reset_values = (self.st.cp_mode, self.st.accel_mode, self.st.ffw)
         self.cycle832_notes: set = set()   # one-time CYCLE832 warnings already given

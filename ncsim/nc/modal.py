@@ -30,7 +30,8 @@ Reset values are the 840D's as delivered (MD20150 $MC_GCODE_RESET_VALUES): G1, G
 G71, G94, G60, G601, BRISK, FFWOF, COMPOF, G500, G40; a machine builder may change them.
 CTOL and OTOL are deleted at reset (no programmed tolerance: the machine data apply). The group-10
 reset value (G60 or a continuous-path mode) comes from the machine file
-(``[ncu] reset_path_mode``), as many machines are delivered in G64.
+(``[ncu] reset_path_mode``), as many machines are delivered in G64, and so does the group-30
+one (``[ncu] reset_compressor``: a compressor on where the program selects none).
 
 :class:`ModalState` is mutable on purpose: million-block programs cannot afford a new object
 per block; the interpreter keeps one and advances it.

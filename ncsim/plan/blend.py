@@ -339,3 +339,64 @@ def _insert_blends(path: Path, corners, t1, t2, phi, deviation):
         col[blend_row] = inserted[name] if name in inserted else old[before]
         cols[name] = col
     return Path(**cols, files=path.files, end_dwell_s=path.end_dwell_s), row_of, blend_row
+
+
+@dataclass(frozen=True, slots=True)
+class ProgrammedPlaces:
+    """The rounded path's places in the programmed path's terms (block by block).
+
+    A programmed line trimmed by ``d`` at a rounded corner keeps its geometry, so its rows map
+    one to one, shifted by the trims; the rounding block inserted at the corner between
+    programmed blocks ``k-1`` and ``k`` spans the programmed stretch ``[S_k - d, S_k + d]``
+    around the corner (at ``S_k``) and is mapped onto it linearly: its first half belongs to
+    block ``k-1``, its second to ``k`` (the 840D's rounding lies "within the adjoining blocks",
+    B1 "Continuous-path mode"). ``s_rounded_mm``/``s_programmed_mm`` are the junctions of the
+    rounded path on both; ``programmed_row`` the programmed row of each rounded row (-1: a
+    rounding block)."""
+
+    s_rounded_mm: np.ndarray       # (n' + 1,) junctions of the rounded path, its own length
+    s_programmed_mm: np.ndarray    # (n' + 1,) the same junctions along the programmed path
+    programmed_row: np.ndarray     # (n',) programmed row of each rounded row; -1: rounding
+    corner_s_mm: np.ndarray        # (n',) programmed place of the corner a rounding block rounds
+
+    @classmethod
+    def of(cls, programmed: Path, rounded: Path, row_of) -> "ProgrammedPlaces":
+        """From the two paths and ``Rounding.row_of`` (programmed row -> rounded row)."""
+        row_of = np.asarray(row_of, dtype=np.int64)
+        n, n_new = programmed.n, rounded.n
+        s_prog = np.concatenate([[0.0], np.cumsum(programmed.length_mm)])
+        s_new = np.concatenate([[0.0], np.cumsum(rounded.length_mm)])
+        # trims: a rounded corner moves a line's end along the line itself (arcs are untouched)
+        trim_start = np.linalg.norm(rounded.start_mm[row_of] - programmed.start_mm, axis=1)
+        trim_end = np.linalg.norm(programmed.end_mm - rounded.end_mm[row_of], axis=1)
+        places = np.empty(n_new + 1)
+        places[row_of + 1] = s_prog[1:] - trim_end
+        places[row_of] = s_prog[:-1] + trim_start
+        prog_row = np.full(n_new, -1, dtype=np.int64)
+        prog_row[row_of] = np.arange(n)
+        corner = np.full(n_new, np.nan)
+        blend = np.nonzero(prog_row < 0)[0]          # never the last row: a corner has a block after
+        corner[blend] = s_prog[prog_row[blend + 1]]
+        return cls(s_rounded_mm=s_new, s_programmed_mm=np.maximum.accumulate(places),
+                   programmed_row=prog_row, corner_s_mm=corner)
+
+    def programmed_s_mm(self, s_rounded_mm) -> np.ndarray:
+        """Path length along the rounded path -> along the programmed path."""
+        return np.interp(s_rounded_mm, self.s_rounded_mm, self.s_programmed_mm)
+
+    def rounded_s_mm(self, s_programmed_mm) -> np.ndarray:
+        """The inverse of :meth:`programmed_s_mm`."""
+        return np.interp(s_programmed_mm, self.s_programmed_mm, self.s_rounded_mm)
+
+    def programmed_block(self, row, s_programmed_mm) -> np.ndarray:
+        """The programmed block of points on rounded rows ``row`` at programmed places
+        ``s_programmed_mm``: a rounding block's first half is its corner's block before, the
+        second half the block after."""
+        row = np.asarray(row, dtype=np.int64)
+        out = self.programmed_row[row]
+        blend = out < 0
+        if np.any(blend):
+            r = row[blend]
+            after = np.asarray(s_programmed_mm)[blend] >= self.corner_s_mm[r]
+            out[blend] = np.where(after, self.programmed_row[r + 1], self.programmed_row[r - 1])
+        return out

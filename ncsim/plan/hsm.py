@@ -97,7 +97,8 @@ class Prepared:
             nc_block[row_of[grouped]] = row_of[self.compression.group_first[grouped]]
         return replace(limits, cap_mm_s=cap, cap_limit=cap_limit, accel_mm_s2=accel,
                        candidates=cand, junction_cap_mm_s=jcap, junction_limit=jlimit,
-                       path=self.path, nc_block=nc_block)
+                       path=self.path, nc_block=nc_block,
+                       row_of=self.rounding.row_of if self.rounding is not None else None)
 
     def _apply_compression(self, row_of, machine, options, cap, cap_limit, accel, cand, jcap,
                            jlimit) -> None:

@@ -156,6 +156,8 @@ class PathLimits:
     path: Path | None = None       # (rounding blocks inserted); None: the caller's path
     nc_block: np.ndarray | None = None  # NC block of each row (compressed rows share one), for
                                         # the look-ahead; None: every row is a block
+    row_of: np.ndarray | None = None    # row of ``path`` of each programmed row (rounding
+                                        # blocks inserted between); None: the same rows
 
     def __post_init__(self) -> None:
         for name in ("cap_mm_s", "cap_limit", "jerk_mm_s3", "accel_mm_s2", "alpha_c_rad",
