@@ -21,12 +21,44 @@ _PAIRWISE_BLOCK = 128   # numpy's PW_BLOCKSIZE
 
 
 @njit(cache=True)
+def _pairwise_leaf(a, lo, hi):
+    """numpy's ``pairwise_sum`` of at most ``_PAIRWISE_BLOCK`` values ``a[lo:hi]``: in order
+    from 0.0 below 8 values, else eight interleaved accumulators and the rest in order."""
+    n = hi - lo
+    if n < 8:
+        res = 0.0
+        for i in range(lo, hi):
+            res += a[i]
+        return res
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    i = lo + 8
+    while i < hi - (n % 8):
+        r0 += a[i]
+        r1 += a[i + 1]
+        r2 += a[i + 2]
+        r3 += a[i + 3]
+        r4 += a[i + 4]
+        r5 += a[i + 5]
+        r6 += a[i + 6]
+        r7 += a[i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < hi:
+        res += a[i]
+        i += 1
+    return res
+
+
+@njit(cache=True)
 def pairwise_sum(a, lo, hi):
     """numpy's pairwise summation of ``a[lo:hi]`` (``np.add.reduce`` of a contiguous array):
-    in order below 8 values; up to ``_PAIRWISE_BLOCK``, eight interleaved accumulators and
-    the rest in order; above, the sum of the two halves (the first a multiple of 8 long), each
-    summed the same way. The halving runs on explicit stacks (numba's cache does not load
-    recursive functions safely)."""
+    up to ``_PAIRWISE_BLOCK`` values :func:`_pairwise_leaf` (the common case, a block's few
+    stretches of one cause: no stack allocated); above, the sum of the two halves (the first
+    a multiple of 8 long), each summed the same way. The halving runs on explicit stacks
+    (numba's cache does not load recursive functions safely)."""
+    if hi - lo <= _PAIRWISE_BLOCK:
+        return _pairwise_leaf(a, lo, hi)
     tasks = np.empty((256, 2))     # (lo, hi), exact as doubles; hi < 0: join the last two
     sums = np.empty(128)           # depth <= 64: two tasks and a join per level
     n_tasks = 1
@@ -46,31 +78,8 @@ def pairwise_sum(a, lo, hi):
             tasks[n_tasks + 1, 0], tasks[n_tasks + 1, 1] = t_lo + n2, t_hi    # then the right
             tasks[n_tasks + 2, 0], tasks[n_tasks + 2, 1] = t_lo, t_lo + n2    # the left first
             n_tasks += 3
-        elif n < 8:
-            res = 0.0
-            for i in range(t_lo, t_hi):
-                res += a[i]
-            sums[n_sums] = res
-            n_sums += 1
         else:
-            r0, r1, r2, r3 = a[t_lo], a[t_lo + 1], a[t_lo + 2], a[t_lo + 3]
-            r4, r5, r6, r7 = a[t_lo + 4], a[t_lo + 5], a[t_lo + 6], a[t_lo + 7]
-            i = t_lo + 8
-            while i < t_hi - (n % 8):
-                r0 += a[i]
-                r1 += a[i + 1]
-                r2 += a[i + 2]
-                r3 += a[i + 3]
-                r4 += a[i + 4]
-                r5 += a[i + 5]
-                r6 += a[i + 6]
-                r7 += a[i + 7]
-                i += 8
-            res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-            while i < t_hi:
-                res += a[i]
-                i += 1
-            sums[n_sums] = res
+            sums[n_sums] = _pairwise_leaf(a, t_lo, t_hi)
             n_sums += 1
     return sums[0]
 
