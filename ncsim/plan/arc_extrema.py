@@ -326,6 +326,19 @@ def least_tangential_accel(ab, c, uv, sweep, cs, ss, max_accel, a_normal):
 # Drivers over all arcs of a path
 # ---------------------------------------------------------------------------------------------
 
+@njit(cache=True, nogil=True)
+def _scratch():
+    """The per-arc work arrays of :func:`arc_axis_terms`: ``ab``, ``uv`` (3 x 2) and ``c``."""
+    return np.empty((3, 2)), np.empty((3, 2)), np.empty(3)
+
+
+@njit(cache=True, nogil=True)
+def _terms_of(a, start, center, normal, radius, sweep, helix, ab, c, uv):
+    """:func:`arc_axis_terms` of row ``a`` of the path columns."""
+    return arc_axis_terms(start[a], center[a], normal[a], radius[a], sweep[a], helix[a], ab, c,
+                          uv)
+
+
 @njit(cache=True, nogil=True, python_below=ARCS_PYTHON_BELOW)
 def arc_capacities(arcs, start, center, normal, radius, sweep, helix, max_velocity, max_accel,
                    max_jerk, j_ncu):
@@ -344,17 +357,14 @@ def arc_capacities(arcs, start, center, normal, radius, sweep, helix, max_veloci
     v_t_min = np.empty(n)
     a_n_min = np.empty(n)
     j_t_min = np.empty(n)
-    ab = np.empty((3, 2))
-    uv = np.empty((3, 2))
-    c = np.empty(3)
+    ab, uv, c = _scratch()
     t = np.empty(3)
     nv = np.empty(3)
     cand = np.empty((_MAX_CAND, 3))
     j_floor = j_ncu * (1.0 - 1e-12)
     for k in range(n):
         a = arcs[k]
-        r_curv[k], sw = arc_axis_terms(start[a], center[a], normal[a], radius[a], sweep[a],
-                                       helix[a], ab, c, uv)
+        r_curv[k], sw = _terms_of(a, start, center, normal, radius, sweep, helix, ab, c, uv)
         cs, ss = math.cos(sw), math.sin(sw)
         vt = math.inf
         an = math.inf
@@ -393,37 +403,39 @@ def arc_tangential_accel(arcs, start, center, normal, radius, sweep, helix, max_
     acceleration ``normal_accel[k]`` (eq. 1 per axis, :func:`least_tangential_accel`)."""
     n = arcs.shape[0]
     out = np.empty(n)
-    ab = np.empty((3, 2))
-    uv = np.empty((3, 2))
-    c = np.empty(3)
+    ab, uv, c = _scratch()
     for k in range(n):
-        a = arcs[k]
-        _, sw = arc_axis_terms(start[a], center[a], normal[a], radius[a], sweep[a], helix[a],
-                               ab, c, uv)
+        _, sw = _terms_of(arcs[k], start, center, normal, radius, sweep, helix, ab, c, uv)
         out[k] = least_tangential_accel(ab, c, uv, sw, math.cos(sw), math.sin(sw), max_accel,
                                         normal_accel[k])
     return out
 
 
+@njit(cache=True, nogil=True)
+def _end_frame(ab, c, uv, r_curv, phi, tangent, curvature):
+    """Unit tangent and curvature vector ``n / R`` at the angle ``phi`` into the given rows."""
+    cp, sp = math.cos(phi), math.sin(phi)
+    tangent_at(ab, c, cp, sp, tangent)
+    normal_at(uv, cp, sp, curvature)
+    for i in range(3):
+        curvature[i] /= r_curv
+
+
 @njit(cache=True, nogil=True, python_below=ARCS_PYTHON_BELOW)
-def arc_end_frames(arcs, start, center, normal, radius, sweep, helix, at_end):
+def arc_end_frames(arcs, start, center, normal, radius, sweep, helix):
     """Unit tangent and curvature vector ``n / R`` (1/mm, R the curvature radius) at the start
-    (``at_end`` False) or the end of each arc ``arcs[k]``, as ``(m, 3)`` arrays -- the
-    junction frames of eq. 13-15 (``geometry.tangent_at`` and ``curvature_at``, compiled)."""
+    and at the end of each arc ``arcs[k]``, as four ``(m, 3)`` arrays (start tangent, start
+    curvature, end tangent, end curvature) -- the junction frames of eq. 13-15
+    (``geometry.tangent_at`` and ``curvature_at``, compiled)."""
     m = arcs.shape[0]
-    tangent = np.empty((m, 3))
-    curvature = np.empty((m, 3))
-    ab = np.empty((3, 2))
-    uv = np.empty((3, 2))
-    c = np.empty(3)
+    tangent_0 = np.empty((m, 3))
+    curvature_0 = np.empty((m, 3))
+    tangent_1 = np.empty((m, 3))
+    curvature_1 = np.empty((m, 3))
+    ab, uv, c = _scratch()
     for k in range(m):
         a = arcs[k]
-        r_curv, _ = arc_axis_terms(start[a], center[a], normal[a], radius[a], sweep[a], helix[a],
-                                   ab, c, uv)
-        phi = sweep[a] if at_end else 0.0
-        cp, sp = math.cos(phi), math.sin(phi)
-        tangent_at(ab, c, cp, sp, tangent[k])
-        normal_at(uv, cp, sp, curvature[k])
-        for i in range(3):
-            curvature[k, i] /= r_curv
-    return tangent, curvature
+        r_curv, _ = _terms_of(a, start, center, normal, radius, sweep, helix, ab, c, uv)
+        _end_frame(ab, c, uv, r_curv, 0.0, tangent_0[k], curvature_0[k])
+        _end_frame(ab, c, uv, r_curv, sweep[a], tangent_1[k], curvature_1[k])
+    return tangent_0, curvature_0, tangent_1, curvature_1

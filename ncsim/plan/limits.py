@@ -382,19 +382,22 @@ def _junction_dwell(path, lo, hi, ncu, dwell) -> None:
             dwell[lo + 1:last + 1] += np.where(g0g1, _settle_s(window, ncu), 0.0)
 
 
-def _block_frames(path, lo, hi, at_end):
-    """Unit tangents and curvature vectors (1/mm) at the start or end of blocks lo..hi-1."""
+def _block_frames(path, lo, hi):
+    """Unit tangents and curvature vectors (1/mm) of blocks lo..hi-1 at their start and at
+    their end: ``(start tangent, start curvature, end tangent, end curvature)``."""
     d = path.end_mm[lo:hi] - path.start_mm[lo:hi]
     length = path.length_mm[lo:hi]
     tangent = np.divide(d, length[:, None], out=d, where=length[:, None] > 0.0)
     tangent[length <= 0.0] = 0.0
     curvature = np.zeros_like(tangent)
     arcs = lo + np.flatnonzero(path.kind[lo:hi] == ARC)
-    if len(arcs):
-        tangent[arcs - lo], curvature[arcs - lo] = arc_end_frames(
-            arcs, path.start_mm, path.center_mm, path.normal, path.radius_mm, path.sweep_rad,
-            path.helix_mm, at_end)
-    return tangent, curvature
+    if not len(arcs):
+        return tangent, curvature, tangent, curvature
+    tangent_end, curvature_end = tangent.copy(), curvature.copy()
+    (tangent[arcs - lo], curvature[arcs - lo], tangent_end[arcs - lo],
+     curvature_end[arcs - lo]) = arc_end_frames(arcs, path.start_mm, path.center_mm, path.normal,
+                                                path.radius_mm, path.sweep_rad, path.helix_mm)
+    return tangent, curvature, tangent_end, curvature_end
 
 
 def _junction_limits(path, lo, hi, machine, options, cap, lim) -> None:
@@ -405,8 +408,9 @@ def _junction_limits(path, lo, hi, machine, options, cap, lim) -> None:
         return
     ncu = machine.ncu
     before, after, inner = slice(first - 1, hi - 1), slice(first, hi), slice(first, hi)
-    t1, k1 = _block_frames(path, first - 1, hi - 1, True)
-    t2, k2 = _block_frames(path, first, hi, False)
+    t_start, k_start, t_end, k_end = _block_frames(path, first - 1, hi)
+    t1, k1 = t_end[:-1], k_end[:-1]          # block k-1 at its end
+    t2, k2 = t_start[1:], k_start[1:]        # block k at its start
     deflection = kin.deflection_angle_rad(t1, t2)
     corner = deflection > TANGENT_TOL_RAD
 
