@@ -19,11 +19,8 @@ absolute times. Set points come from the code under test (this is a speed benchm
 """
 from __future__ import annotations
 
-import argparse
 import json
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -120,16 +117,10 @@ def program_file(directory: Path, name: str, n: int) -> Path:
 
 
 def main(argv=None) -> int:
-    from bench_scale import LAST_CPU_S, measure
+    from bench_scale import LAST_CPU_S, comparison_args, measure
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--blocks", type=int, default=1_000_000)
-    ap.add_argument("--repeat", type=int, default=3, help="interleaved runs per program")
-    ap.add_argument("--dir", default=os.path.join(tempfile.gettempdir(), "ncsim-bench"))
-    ap.add_argument("--json", dest="json_out", default=None)
-    args = ap.parse_args(argv)
-    directory = Path(args.dir)
-    directory.mkdir(parents=True, exist_ok=True)
+    args, directory = comparison_args(__doc__.splitlines()[0], argv, repeat=3,
+                                      repeat_help="interleaved runs per program")
     py = sys.executable
     files = {name: program_file(directory, name, args.blocks) for name in PROGRAMS}
     measure([py, "-m", "ncsim", "run", str(files["lines"]), "--machine", "mikron"])  # warm-up

@@ -17,12 +17,9 @@ curvature are tested against independent computations in ``tests/test_compressor
 """
 from __future__ import annotations
 
-import argparse
 import json
-import os
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -75,14 +72,10 @@ def wall_time(args: list[str]) -> float:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--blocks", type=int, default=1_000_000)
-    ap.add_argument("--repeat", type=int, default=1, help="alternating runs per variant (best kept)")
-    ap.add_argument("--dir", default=os.path.join(tempfile.gettempdir(), "ncsim-bench"))
-    ap.add_argument("--json", dest="json_out", default=None)
-    args = ap.parse_args(argv)
-    directory = Path(args.dir)
-    directory.mkdir(parents=True, exist_ok=True)
+    from bench_scale import comparison_args
+
+    args, directory = comparison_args(__doc__.splitlines()[0], argv, repeat=1,
+                                      repeat_help="alternating runs per variant (best kept)")
     files = programs(directory, args.blocks)
     py = sys.executable
     run = [py, "-m", "ncsim", "run"]

@@ -109,6 +109,21 @@ def measure(args: list[str]) -> tuple[float, float, str]:
     return wall, usage.ru_maxrss / 1024.0, b"".join(chunks).decode()
 
 
+def comparison_args(description: str, argv, *, repeat: int, repeat_help: str):
+    """The options of the benchmarks that compare 1M-block programs side by side
+    (``bench_arcs``, ``bench_compressor``): ``--blocks``, ``--repeat``, ``--dir`` (the programs'
+    cache) and ``--json``. Returns the parsed arguments and the directory, created."""
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("--blocks", type=int, default=1_000_000)
+    ap.add_argument("--repeat", type=int, default=repeat, help=repeat_help)
+    ap.add_argument("--dir", default=os.path.join(tempfile.gettempdir(), "ncsim-bench"))
+    ap.add_argument("--json", dest="json_out", default=None)
+    args = ap.parse_args(argv)
+    directory = Path(args.dir)
+    directory.mkdir(parents=True, exist_ok=True)
+    return args, directory
+
+
 def program_file(directory: Path, blocks: int) -> Path:
     from gen_cam import cam_program
 
