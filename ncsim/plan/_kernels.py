@@ -59,11 +59,17 @@ def knot_feeds(caps, section_length, section_jerk, section_accel):
     from the previous one (see ncsim.plan)."""
     m = caps.shape[0]
     v = caps.copy()
+    # a ramp never ends below its start (reach_gain_scalar >= 0), so a knot no higher than
+    # the one its ramp starts from keeps its feed without the ramp being solved
     for i in range(m - 2, -1, -1):
+        if v[i] <= v[i + 1]:
+            continue
         r = ramp_reach_scalar(v[i + 1], section_length[i], section_jerk[i], section_accel[i])
         if r < v[i]:
             v[i] = r
     for i in range(m - 1):
+        if v[i + 1] <= v[i]:
+            continue
         r = ramp_reach_scalar(v[i], section_length[i], section_jerk[i], section_accel[i])
         if r < v[i + 1]:
             v[i + 1] = r
