@@ -119,10 +119,14 @@ class ColumnPath:
         n_ccw = arc_normal(st.frame, st.plane)
         if n_ccw is None:
             return False
-        ai = np.flatnonzero(is_arc)
+        if is_arc.all():           # a run of arcs (CAM arc fitting): views, not gathers
+            ai = slice(None)
+            center_wcs = wcs_start.copy()
+        else:
+            ai = np.flatnonzero(is_arc)
+            center_wcs = wcs_start[ai]
         arc_rows = rows[ai]
         scale = st.length_scale
-        center_wcs = wcs_start[ai].copy()
         e1, e2, _ = PLANE_AXES[st.plane]
         for axis in (e1, e2):
             v = run.values[arc_rows, 3 + axis] * scale
