@@ -2,7 +2,8 @@
 
 A *kernel* is a function over numpy arrays and scalars written in the subset of Python that
 numba compiles (the scanner of ``nc.fastparse``, the look-ahead loops of ``plan._kernels``, the
-CSV row writer of ``report.csvformat``). :func:`njit` (a stand-in for ``numba.njit``) wraps it
+CSV row writer of ``report.csvformat``, the nearest-point searches of ``gap.nearest`` and
+``gap.align``, the servo integrator of ``gap.truth.servo``). :func:`njit` (a stand-in for ``numba.njit``) wraps it
 in a :class:`Kernel` that runs either the function itself, as plain Python, or numba's
 compiled version of it:
 

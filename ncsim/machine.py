@@ -22,9 +22,10 @@ import numpy as np
 from ncsim.config import Problems, between, is_number, open_share, read_toml, share, share0
 from ncsim.errors import ConfigWarning, MachineSpecError
 from ncsim.path import BRISK, COMPCAD, COMPOF, COMPRESSOR_NAMES, DRIVE, SOFT
-from ncsim.units import (deg_to_rad, m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_s2_to_m_s2,
-                         mm_s3_to_m_s3, mm_s_to_m_min, ms_to_s, percent_to_share, rad_to_deg,
-                         s2_to_um_per_m_s2, s_to_ms, share_to_percent, um_per_m_s2_to_s2)
+from ncsim.units import (deg_to_rad, m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_min_to_mm_s,
+                         mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min, mm_s_to_mm_min, ms_to_s,
+                         percent_to_share, rad_to_deg, s2_to_um_per_m_s2, s_to_ms, share_to_percent,
+                         um_per_m_s2_to_s2)
 
 AXIS_NAMES = ("X", "Y", "Z")
 #: group-10 G functions a machine may reset to (MD20150 $MC_GCODE_RESET_VALUES)
@@ -81,6 +82,9 @@ class NcuSpec:
     exact_pos_mode_g0_to_g1: int = 0          # MD20552: stop window at G0<->G1 changes (0 none, 1 G601, 2 G602, 3 G603)
     rapid_override: float = 1.0               # rapid-traverse override in force (share of the G0 velocity)
     feed_override: float = 1.0                # path-feed override in force (share of the programmed F)
+    # SD42110 $SC_DEFAULT_FEED: the path feed before any F (0 as delivered: a G1/G2/G3 before
+    # any F is then alarm 10860 "no feed programmed"); see InterpreterState
+    default_feed_mm_s: float = 0.0
 
     @property
     def g642_contour_tolerance(self) -> bool:
@@ -273,6 +277,8 @@ _NCU_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
      between(1e-3, MAX_OVERRIDE_PERCENT, "%"), percent_to_share),
     ("feed_override_percent", "feed_override", False,
      between(1e-3, MAX_OVERRIDE_PERCENT, "%"), percent_to_share),
+    ("default_feed_mm_min", "default_feed_mm_s", False, between(0.0, 1e9, "mm/min"),
+     mm_min_to_mm_s),
 )
 #: [ncu] keys that are not plain numbers (read in machine_from_dict)
 _NCU_OTHER_KEYS = ("smoothing_mode", "ignore_ovl_factor_for_adis", "reset_path_mode",
@@ -592,7 +598,8 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
               f"reset_compressor = {_q(COMPRESSOR_NAMES[n.reset_compressor])}  # MD20150 $MC_GCODE_RESET_VALUES (group 30)",
               f"exact_pos_mode_g0_to_g1 = {n.exact_pos_mode_g0_to_g1}  # MD20552 $MC_EXACT_POS_MODE_G0_TO_G1",
               f"rapid_override_percent = {_f(share_to_percent(n.rapid_override))}  # rapid-traverse override in force",
-              f"feed_override_percent = {_f(share_to_percent(n.feed_override))}  # feed override in force"]
+              f"feed_override_percent = {_f(share_to_percent(n.feed_override))}  # feed override in force",
+              f"default_feed_mm_min = {_f(mm_s_to_mm_min(n.default_feed_mm_s))}  # SD42110 $SC_DEFAULT_FEED"]
     if spec.work_offsets_mm:
         lines += ["", "[work_offsets]"]
         for key, (x, y, z) in spec.work_offsets_mm:

@@ -1,5 +1,5 @@
 """``ncsim plot --trace`` (report.csvio) and ``ncsim gap --measured`` (gap.measured) read CSV
-through one reader (``ncsim.gap.csvtable``): they accept the same dialects, with the same
+through one reader (``ncsim.config.read_table``): they accept the same dialects, with the same
 numbers, and reject the same bad rows at the same line with the same message."""
 from __future__ import annotations
 

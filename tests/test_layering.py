@@ -4,6 +4,9 @@ One package per stage of the data flow (``docs/architecture.md``):
 
 * ``ncsim.nc`` (program text -> Path) imports none of ``plan``, ``report``, ``gap``, ``cli``;
 * ``ncsim.plan`` (Path -> Motion) imports none of ``gap``, ``cli``;
+* ``ncsim.report`` (what a run prints and writes) imports none of ``gap``, ``cli``: the gap
+  diagnosis reports through it, never the other way (the CSV reader both use is
+  ``ncsim.config``'s);
 * ``ncsim.gap.truth`` (the validation truths) is imported only by itself, tests and benchmarks;
 * no module imports another module's private name (``from x import _y``, ``x._y``), nor a
   private module (``_kernels``) of another package;
@@ -27,6 +30,7 @@ MAX_CLASS_LINES = 400
 FORBIDDEN = {
     "ncsim.nc": ("ncsim.plan", "ncsim.report", "ncsim.gap", "ncsim.cli"),
     "ncsim.plan": ("ncsim.gap", "ncsim.cli"),
+    "ncsim.report": ("ncsim.gap", "ncsim.cli"),
 }
 #: imported by nothing in ncsim outside itself (tests and benchmarks may)
 FENCED = ("ncsim.gap.truth",)
@@ -233,6 +237,10 @@ BROKEN = [
     ("plan imports gap", dict(plan__limits="from ncsim.gap import effects\n"),
      "ncsim.plan imports ncsim.gap"),
     ("plan imports cli", dict(plan__limits="import ncsim.cli.main as m\n"), "ncsim.plan imports ncsim.cli"),
+    ("report imports gap", dict(report__csvio="from ncsim.gap.measured import MeasuredTrace\n"),
+     "ncsim.report imports ncsim.gap.measured"),
+    ("report imports cli inside a function",
+     dict(report__plot="def f():\n    from ncsim.cli import main\n"), "ncsim.report imports ncsim.cli"),
     ("production code imports the truth",
      dict(gap__servo_part="from ncsim.gap.truth.servo import estimate_lag\n"),
      "imports ncsim.gap.truth.servo (tests and benchmarks only)"),

@@ -684,6 +684,9 @@ def _explain_text(machine, ext, rows, feed_unit: str = "mm/min") -> str:
             + ", ".join(f"{a.name} {a.max_accel_ovl_factor:g}" for a in machine.axes),
             f"  exact-stop settle G601 / G602      {s_to_ms(n.exact_stop_fine_settle_s):g} / "
             f"{s_to_ms(n.exact_stop_coarse_settle_s):g} ms",
+            "  default feed (SD42110)             " + (
+                f"{f(n.default_feed_mm_s):.{d}f} {unit} until the first F" if n.default_feed_mm_s > 0
+                else "0: G1/G2/G3 before any F is alarm 10860"),
             "", "over the tangent direction in XY",
             f"  J_t (eq. 9)   {mm_s3_to_m_s3(ext['jerk_t_mm_s3'][0]):.3g} .. "
             f"{mm_s3_to_m_s3(ext['jerk_t_mm_s3'][1]):.3g} m/s^3",
@@ -711,8 +714,15 @@ def _explain_text(machine, ext, rows, feed_unit: str = "mm/min") -> str:
 def warmup_cmd() -> None:
     """Compile ncsim's numba kernels now (once after installing, 10-20 s), so that no later
     run pauses to compile. Programs under about 10,000 blocks never need them."""
+    import time
+
+    from ncsim.gap.pipeline import warmup_kernels
     from ncsim.pipeline import warmup
-    click.echo(f"kernels ready ({warmup():.1f} s); later runs load them from numba's cache")
+    t0 = time.perf_counter()
+    warmup()
+    warmup_kernels()       # the gap's (ncsim gap)
+    click.echo(f"kernels ready ({time.perf_counter() - t0:.1f} s); later runs load them from "
+               f"numba's cache")
 
 
 # ---------------------------------------------------------------------------------------------

@@ -33,12 +33,12 @@ from dataclasses import dataclass
 from enum import IntEnum
 
 import numpy as np
-from numba import njit
 from scipy.optimize import minimize_scalar
 from scipy.signal import correlate, correlation_lags
 
 from ncsim.errors import UsageError
 from ncsim.gap.measured import MeasuredTrace, derived_speed_mm_s
+from ncsim.jit import njit
 
 
 class AlignPhase(IntEnum):
@@ -274,7 +274,10 @@ def _project_window(q, pts, s, ts, lo, hi, t_want, tol, s_prior, sigma_d, sigma_
     return best_j, best_u
 
 
-@njit(cache=True)
+#: always compiled (unless ``NCSIM_KERNELS=python``): the gap's model search aligns every
+#: candidate model, hundreds of calls whose plain-Python cost (about 70 us a sample) adds up
+#: to far more than numba's start-up, whatever the length of one call
+@njit(cache=True, python_below=0)
 def _track(q, pts, s, ts, t_al, s_prior, restart, dt, v_max, slack, init_window, tol,
            sigma_d, sigma_s, out_j, out_u):
     """Sequential monotone projection of the measured points ``q`` on the polyline."""

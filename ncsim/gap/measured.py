@@ -6,7 +6,7 @@ Everything is converted to ncsim's internal units at load time (mm, s, mm/s, mm/
 from ``ncsim.units``). Every problem with a file is a one-line
 :class:`~ncsim.errors.MeasuredDataError` naming the file and the line or the column.
 
-Trace CSV (the dialect of ``ncsim.gap.csvtable``), default column convention::
+Trace CSV (the dialect of ``ncsim.config.read_table``), default column convention::
 
     t_s, x_mm, y_mm[, z_mm][, feed_mm_min][, vx_mm_s, vy_mm_s[, vz_mm_s]][, x_cmd_mm, y_cmd_mm[, z_cmd_mm]][, line]
 
@@ -30,7 +30,7 @@ from typing import Mapping
 import numpy as np
 
 from ncsim.errors import MeasuredDataError, UsageError
-from ncsim.gap.csvtable import CsvTable, read_table
+from ncsim.config import CsvTable, read_table
 # published values (TOML) are read by ncsim.gap.summaryfile; their names stay importable here
 from ncsim.gap.summaryfile import (MeasuredSummary, SummaryEntry,  # noqa: F401
                                    load_measured_summary, summary_from_dict)

@@ -1,5 +1,5 @@
-"""Nearest program points of recorded samples, in order: the compiled search behind
-``ncsim.gap.register``.
+"""Nearest program points of recorded samples, in order: the search behind
+``ncsim.gap.register`` (a kernel of ``ncsim.jit``, compiled by numba).
 
 :func:`track` places every sample on the path (its path length ``s``, segment, foot point and
 unit tangent) by a windowed nearest-point search on the exact lines, arcs and helices
@@ -17,9 +17,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from ncsim.geometry import arc_basis
+from ncsim.jit import njit
 from ncsim.path import ARC, Path
 
 FORWARD_CHORDS = 3.0              # the place may advance up to 3 chords per sample
@@ -148,7 +148,10 @@ def _nearest_on_segment(q0, q1, q2, k, lo, hi, kind, start, end, length, center,
     return best_d2, best_phi * rho, f0, f1, f2, t0, t1, t2
 
 
-@njit(cache=True)
+#: always compiled (unless ``NCSIM_KERNELS=python``): registration tracks every seed and every
+#: Gauss-Newton step, and a sample's window can span many segments of a CAM program, so the
+#: cost of a call is not told by its number of samples
+@njit(cache=True, python_below=0)
 def _track(q, s_seed, first_window, back, forward, kind, start, end, s0, length, center, u,
            v, w, radius, sweep, pitch, out_s, out_seg, out_foot, out_tan):
     """Monotone windowed nearest-point search of the samples ``q`` in order (module

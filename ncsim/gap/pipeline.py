@@ -367,3 +367,25 @@ def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
                            recorder_window_ms=RECORDER_WINDOW_MS.get(kind))
     return GapResult("split", file, spec, planner=split.planner, servo=split.servo,
                      measured=trace, path=path, registration=reg)
+
+
+def warmup_kernels() -> None:
+    """Compile numba's versions of the gap's kernels (the nearest-point search of
+    ``nearest.track`` and the projection of ``align.project_on_path``), or load them from its
+    cache, on a tiny input with the argument types of a real run: ``ncsim warmup`` calls it
+    after ``ncsim.pipeline.warmup``, so that no later ``ncsim gap`` pauses to compile."""
+    from ncsim import jit
+    from ncsim.gap import align, nearest
+    from ncsim.nc.interpret import interpret_text
+
+    path = interpret_text("G17 G90 F1000\nG1 X10\nG2 X10 Y0 Z-1 I5 J0 TURN=1\nM30\n",
+                          "warmup.mpf").path          # a line and a helix
+    q = np.array([[0.0, 0.0, 0.0], [5.0, 0.1, 0.0], [10.0, 0.0, -0.5], [15.0, 0.0, -1.0]])
+    s = np.array([0.0, 5.0, 10.0, 15.0])
+    t = 0.1 * s
+    restart = np.array([True, False, False, False])
+    with jit.forced("compiled"):
+        nearest.track(q, nearest.path_geometry(path), 0.0, first_window_mm=1.0, slack_mm=1.0)
+        for sigma_s in (1.0, 0.0):
+            align.project_on_path(q, q, s, t, t, s, restart, np.full(4, 0.5), 100.0, 1.0, 1.0,
+                                  0.01, 0.1, sigma_s)

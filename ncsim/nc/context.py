@@ -30,6 +30,7 @@ from ncsim.nc.modal import COMMANDS_NOT_SIMULATED, ModalState
 from ncsim.nc.sysvars import SystemVariables
 from ncsim.nc.variables import Variables
 from ncsim.path import PathBuilder
+from ncsim.units import mm_s_to_mm_min
 
 WARNING_CAP = 20             # warnings of one kind shown before they are only counted
 WORD_VALUE_LIMIT = 1e9       # |value| of a word: the 840D accepts +-999 999 999.9999
@@ -227,6 +228,7 @@ class InterpreterState:
         self._loop_states: dict = {}       # jump back -> (last pass to compare, kept state)
         self.f_value = 0.0                 # the last F as programmed ($P_F)
         self.feed_type = 94                # G93/G94/G95/G97/G971 (group 15)
+        self._default_feed(ncu)
         self.settable_code = 500           # G500, G54.. (group 8)
         self.master_spindle = 1            # SETMS
         self.modal_call = None             # (Unit, args, name) of an active MCALL
@@ -238,6 +240,17 @@ class InterpreterState:
         self.out: PathOutput | None = None
         self.ended = False
         self.line = 0                      # line of the block being executed
+
+    def _default_feed(self, ncu) -> None:
+        """SD42110 ``$SC_DEFAULT_FEED`` (840D sl parameter manual "Detailed machine data
+        description", setting data 42110 DEFAULT_FEED): the path feed a program starts with,
+        in force until its first F, read at the program start in the feed type then active
+        (G94 at reset here, so mm/min). As delivered it is 0, and a G1/G2/G3 before any F is
+        alarm 10860 "no feed programmed" (:meth:`ncsim.nc.moves.Moves._require_feed`)."""
+        feed_mm_s = ncu.default_feed_mm_s if ncu is not None else 0.0
+        if feed_mm_s > 0.0:
+            self.f_value = mm_s_to_mm_min(feed_mm_s)
+            self.st.feed_mm_s = feed_mm_s
 
     def count(self, file: str, line: int) -> None:
         """One more block executed; the budget stops endless loops."""

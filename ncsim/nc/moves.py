@@ -278,13 +278,18 @@ class Moves:
     # ---- end points ----------------------------------------------------------------------------
 
     def _require_feed(self, ctx) -> None:
+        """A G1/G2/G3 needs a path feed: the last F, or the machine's default feed SD42110
+        ``$SC_DEFAULT_FEED`` the program started with (:class:`~ncsim.nc.context.InterpreterState`);
+        without either the 840D stops with alarm 10860 "no feed programmed"."""
         if math.isnan(self.st.feed_mm_s):
             name = MOTION_NAMES[self.st.motion]
             state = self.state
             if state.feed_type in (95, 97) and state.f_value > 0.0:
                 raise ctx.error(f"{name} with feed per revolution (G{state.feed_type}) needs the "
                                 f"spindle turning: S and M3/M4", _motion_col(ctx))
-            raise ctx.error(f"{name} without a feed: no F programmed yet", _motion_col(ctx))
+            raise ctx.error(f"{name} without a feed: no F programmed yet (840D alarm 10860; a "
+                            f"machine's default feed SD42110 is the machine-file key "
+                            f"ncu.default_feed_mm_min)", _motion_col(ctx))
 
     def _targets(self, ctx, suppressed: bool):
         """End point of the block in WCS and MCS (lists of 3 floats)."""

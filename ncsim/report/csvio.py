@@ -32,7 +32,7 @@ from typing import Callable, Iterable, Mapping
 import numpy as np
 
 from ncsim.errors import MeasuredDataError, UsageError
-from ncsim.gap.csvtable import read_table, table_from_text
+from ncsim.config import read_table, table_from_text
 from ncsim.motion import Limit, Phase
 from ncsim.motion import Trace
 from ncsim.units import mm_min_to_mm_s, mm_s_to_mm_min
@@ -437,7 +437,7 @@ def read_trace_csv(file) -> dict[str, np.ndarray]:
     ``limit``/``phase`` as their int8 codes (:class:`~ncsim.motion.Limit`,
     :class:`~ncsim.motion.Phase`), everything else float64 (``inf`` and ``nan`` allowed: a
     rapid's programmed feed is ``inf``). The file is read in the dialect of
-    :mod:`ncsim.gap.csvtable`, as ``ncsim gap --measured`` reads it. Any problem raises a
+    :func:`ncsim.config.read_table`, as ``ncsim gap --measured`` reads it. Any problem raises a
     one-line :class:`~ncsim.errors.MeasuredDataError` naming the file and line or column.
     """
     if isinstance(file, (str, os.PathLike)):

@@ -39,8 +39,9 @@ ideal speed loop ``R / sqrt(1 + (W / Kv)^2)`` (shrinks), and with the structure 
 ``R (1 + A_n / (w_s^2 R))`` to first order (grows).
 
 Integration: classical RK4 at a fixed step ``dt_s`` (default 0.25 ms, at most 1 ms), the
-command evaluated at the step and half-step instants; compiled with numba. The step must
-resolve the fastest pole (checked: ``dt * max(Kv, 1/T_v, w_s) <= 0.5``).
+command evaluated at the step and half-step instants; a kernel of ``ncsim.jit`` (plain Python on
+short commands, numba above). The step must resolve the fastest pole (checked:
+``dt * max(Kv, 1/T_v, w_s) <= 0.5``).
 """
 from __future__ import annotations
 
@@ -48,11 +49,11 @@ import math
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
-from numba import njit
 from scipy.interpolate import CubicHermiteSpline
 
 from ncsim.errors import UsageError
 from ncsim.gap.measured import MeasuredTrace
+from ncsim.jit import njit
 
 MAX_STEP_S = 1e-3
 DEFAULT_STEP_S = 2.5e-4
@@ -168,9 +169,10 @@ def _deriv(xm, vm, d, dd, xc, vc, ac, kv, kff, tv, w, zeta, rigid):
 
 
 @njit(cache=True)
-def _integrate(state, xc, vc, ac, dt, kv, kff, tv, w, zeta, fric, out_xm, out_vm, out_d):
+def _integrate(xc, vc, ac, state, dt, kv, kff, tv, w, zeta, fric, out_xm, out_vm, out_d):
     """RK4 over ``n = out_xm.shape[0] - 1`` steps. ``xc, vc, ac`` (2n+1, axes) are the command
-    at the half-step grid; ``state`` (4, axes) = (x_m, v_m, d, dd/dt) is updated in place."""
+    at the half-step grid (``xc`` first: its length is the size ``ncsim.jit`` picks the plain or
+    compiled version by); ``state`` (4, axes) = (x_m, v_m, d, dd/dt) is updated in place."""
     n = out_xm.shape[0] - 1
     na = state.shape[1]
     for a in range(na):
@@ -330,7 +332,7 @@ def simulate_servo(t_s, cmd_pos_mm, params: ServoParams, *, cmd_vel_mm_s=None,
         vc = np.ascontiguousarray(dspline(th))
         ac = np.ascontiguousarray(ddspline(th))
         oxm, ovm, od = (np.empty((n + 1, 3)) for _ in range(3))
-        _integrate(state, xc, vc, ac, dt_s, kv, kff, tv, w, zeta, fric, oxm, ovm, od)
+        _integrate(xc, vc, ac, state, dt_s, kv, kff, tv, w, zeta, fric, oxm, ovm, od)
         tg = th[::2]
         if out_t is None:
             skip = 0 if start == 0 else 1  # the first point repeats the previous chunk's last
