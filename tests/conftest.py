@@ -43,3 +43,15 @@ def fresh_kernel_choice():
 
     jit._active = False
     yield
+
+
+@pytest.fixture(autouse=True)
+def no_compile_notice_in_outputs(monkeypatch):
+    """The CLI's "compiling kernels" line depends on the state of numba's cache (a fresh clone
+    compiles wherever a kernel is first used), not on the command: tests that compare stderr
+    run without it. ``tests/test_jit.py`` tests the notice itself, in fresh processes with an
+    empty cache of their own."""
+    import ncsim.cli.main
+
+    monkeypatch.setattr(ncsim.cli.main, "_compile_notice", lambda text: None)
+    yield
