@@ -283,12 +283,9 @@ _NCU_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
 #: [ncu] keys that are not plain numbers (read in machine_from_dict)
 _NCU_OTHER_KEYS = ("smoothing_mode", "ignore_ovl_factor_for_adis", "reset_path_mode",
                    "exact_pos_mode_g0_to_g1", "reset_compressor")
-#: keys of earlier versions: what replaced them
-_REPLACED_KEYS = {
-    ("ncu", "corner_velocity_jump_factor"):
-        "replaced by max_accel_ovl_factor in [axes.X], [axes.Y], [axes.Z] (MD32310: the G64 "
-        "velocity jump is A (factor - 1) t_IPO, so the new value is 1 + the old one)",
-}
+#: the key of earlier versions that MD32310 replaced: the G64 velocity jump was
+#: ``corner_velocity_jump_factor`` x A t_IPO, it is A (max_accel_ovl_factor - 1) t_IPO per axis
+_OLD_CORNER_KEY = "corner_velocity_jump_factor"
 _CYCLE832_KEYS = ("path_mode", "compressor", "accel_mode", "feed_forward")
 
 _STRUCTURE_KEYS = (
@@ -318,15 +315,37 @@ _JERK_RAMP_MIN_CYCLES = 0.05
 _JERK_SPREAD = 100.0
 
 
+def _read_old_corner_key(data: dict[str, Any], c: Problems) -> dict[str, Any]:
+    """``[ncu] corner_velocity_jump_factor = k`` of earlier versions, read as
+    ``max_accel_ovl_factor = 1 + k`` on every axis that does not set it (MD32310: the same G64
+    jump), with a warning; an error next to axis values (which one holds?)."""
+    ncu, axes = data.get("ncu"), data.get("axes")
+    if not isinstance(ncu, dict) or _OLD_CORNER_KEY not in ncu:
+        return data
+    key, old = f"ncu.{_OLD_CORNER_KEY}", ncu[_OLD_CORNER_KEY]
+    axes = axes if isinstance(axes, dict) else {}
+    given = [a for a, t in axes.items() if isinstance(t, dict) and "max_accel_ovl_factor" in t]
+    if given or isinstance(old, bool) or not isinstance(old, (int, float)) or not old >= 0:
+        c.add(key, "replaced by max_accel_ovl_factor in [axes.X], [axes.Y], [axes.Z] (MD32310: "
+                   "the G64 velocity jump is A (factor - 1) t_IPO, so the new value is 1 + the "
+                   "old one)" + (f"; axes {', '.join(given)} already set it" if given else ""))
+        return data
+    c.warn(key, f"a key of earlier versions: read as max_accel_ovl_factor = {1 + old:g} on every "
+                f"axis (MD32310: the G64 velocity jump is A (factor - 1) t_IPO); write that "
+                f"instead")
+    ncu = {k: v for k, v in ncu.items() if k != _OLD_CORNER_KEY}
+    axes = {a: ({**t, "max_accel_ovl_factor": 1.0 + old} if isinstance(t, dict) else t)
+            for a, t in axes.items()}
+    return {**data, "ncu": ncu, "axes": axes}
+
+
 def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineSpec:
     """Validate a parsed machine file; every problem is collected into one
     :class:`~ncsim.errors.MachineSpecError`."""
     c = Problems(file, MachineSpecError)
     c.unknown(data, "", {"machine", "axes", "ncu", "work_offsets", "structure", "cycle832",
                          "system_variables"})
-    for (table, key), message in _REPLACED_KEYS.items():
-        if isinstance(data.get(table), dict) and key in data[table]:
-            c.add(f"{table}.{key}", message)
+    data = _read_old_corner_key(data, c)
 
     mtab = c.table(data, "machine", required=True)
     c.unknown(mtab, "machine", {"name", "description"})
@@ -354,7 +373,7 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
 
     ntab = c.table(data, "ncu", required=True)
     c.unknown(ntab, "ncu", {k for k, *_ in _NCU_KEYS} | set(_NCU_OTHER_KEYS)
-              | {k for t, k in _REPLACED_KEYS if t == "ncu"})
+              | {_OLD_CORNER_KEY})
     ncu_values = {}
     for k, f, req, chk, conv in _NCU_KEYS:
         if conv is int:

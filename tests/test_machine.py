@@ -40,7 +40,8 @@ def mikron_dict():
     (lambda d: d["axes"].pop("Y"), "axes.Y", "missing table"),
     (lambda d: d.pop("ncu"), "ncu", "missing table"),
     (lambda d: d["axes"].update(A={}), "axes.A", "unknown key"),
-    (lambda d: d["ncu"].update(corner_velocity_jump_factor=1.0), "ncu.corner_velocity_jump_factor",
+    (lambda d: (d["ncu"].update(corner_velocity_jump_factor=1.0),
+                d["axes"]["X"].update(max_accel_ovl_factor=2.0)), "ncu.corner_velocity_jump_factor",
      "replaced by max_accel_ovl_factor in [axes.X], [axes.Y], [axes.Z] (MD32310"),
     (lambda d: d["axes"]["X"].update(max_accel_ovl_factor=0.9), "axes.X.max_accel_ovl_factor",
      "must be >= 1 (MD32310"),
@@ -58,6 +59,19 @@ def test_each_bad_key_is_named(edit, key, message):
         machine_from_dict(data, "shop.toml")
     assert info.value.render().startswith(f"shop.toml: {key}: {message}")
     assert "\n" not in info.value.render()
+
+
+def test_the_former_corner_key_is_read_as_md32310_with_a_warning(mikron):
+    """corner_velocity_jump_factor k (jump k A t_IPO) is max_accel_ovl_factor 1 + k (MD32310:
+    jump A (f - 1) t_IPO) on every axis: the same machine, and a warning naming the key."""
+    data = mikron_dict()
+    factors = {a: t.pop("max_accel_ovl_factor") for a, t in data["axes"].items()}
+    assert set(factors.values()) == {2.0}
+    data["ncu"]["corner_velocity_jump_factor"] = 1.0
+    old = machine_from_dict(data, "old.toml")
+    assert [w.key for w in old.warnings] == ["ncu.corner_velocity_jump_factor"]
+    assert "max_accel_ovl_factor = 2" in str(old.warnings[0])
+    assert replace(old, warnings=(), source="") == replace(mikron, warnings=(), source="")
 
 
 def test_several_problems_are_reported_together():
