@@ -50,6 +50,7 @@ from ncsim.jit import njit
 TWO_PI = 2.0 * math.pi
 _FEASIBLE_REL = 1e-12   # |t_i| <= bound * (1 + this): J_t reaches J_tcurv (alpha_c)
 _JMAX_REL = 1e-9        # "J_t is largest" within this (the first such angle is alpha_c)
+_UNREACHED_REL = 1e-9   # max |t_i| this far below J_mi / J_tcurv: t_i never reaches it
 _MAX_CAND = 32          # candidate angles per arc and quantity
 #: arcs per call below which the drivers run as plain Python (``ncsim.jit``): measured on
 #: half circles, a whole run in plain Python costs about 0.1 s of CPU per 1,000 arcs, numba's
@@ -194,9 +195,15 @@ def carries_jerk(ab, c, max_jerk, j_floor, cos_phi, sin_phi):
 
 
 @njit(cache=True, nogil=True)
-def first_carrying_angle(ab, c, sweep, cs, ss, max_jerk, j_floor):
+def first_carrying_angle(ab, c, sweep, cs, ss, max_jerk, j_floor, t_max):
     """Least phi in [0, sweep] with J_t(phi) >= j_floor as ``(phi, cos phi, sin phi)``, phi = -1
-    if none: the start, the end, or an angle where some t_i reaches +-J_mi / j_floor."""
+    if none: the start, the end, or an angle where some t_i reaches +-J_mi / j_floor.
+
+    ``t_max[i]`` is max over the arc of |t_i| (:func:`max_abs_tangent`): an axis whose
+    component stays below its bound by more than ``_UNREACHED_REL`` has no such angle on the
+    arc, and its equations are not solved (a solution the rounded sign tests of
+    :func:`on_arc` let through lies within rounding of the arc, where |t_i| is within
+    rounding of ``t_max[i]``, far above that margin)."""
     if carries_jerk(ab, c, max_jerk, j_floor, 1.0, 0.0):
         return 0.0, 1.0, 0.0
     best, best_c, best_s = -1.0, 1.0, 0.0
@@ -206,6 +213,8 @@ def first_carrying_angle(ab, c, sweep, cs, ss, max_jerk, j_floor):
         if not math.isfinite(max_jerk[i]):
             continue
         bound = max_jerk[i] / j_floor
+        if t_max[i] < bound * (1.0 - _UNREACHED_REL):
+            continue
         for k in (bound - c[i], -bound - c[i]):
             m, c1, s1, c2, s2 = trig_solutions(ab[i, 0], ab[i, 1], k)
             for j in range(m):
@@ -361,6 +370,7 @@ def arc_capacities(arcs, start, center, normal, radius, sweep, helix, max_veloci
     t = np.empty(3)
     nv = np.empty(3)
     cand = np.empty((_MAX_CAND, 3))
+    t_max = np.empty(3)
     j_floor = j_ncu * (1.0 - 1e-12)
     for k in range(n):
         a = arcs[k]
@@ -371,6 +381,7 @@ def arc_capacities(arcs, start, center, normal, radius, sweep, helix, max_veloci
         jt = math.inf
         for i in range(3):
             tmax = max_abs_tangent(ab, c, i, sw, cs, ss)
+            t_max[i] = tmax
             nmax = max_abs_normal(uv, i, sw, cs, ss)
             if tmax > 0.0:
                 vt = min(vt, max_velocity[i] / tmax)
@@ -380,7 +391,8 @@ def arc_capacities(arcs, start, center, normal, radius, sweep, helix, max_veloci
         v_t_min[k], a_n_min[k], j_t_min[k] = vt, an, jt
         phi, cp, sp = -1.0, 1.0, 0.0
         if math.isfinite(j_ncu):
-            phi, cp, sp = first_carrying_angle(ab, c, sw, cs, ss, max_jerk, j_floor)
+            phi, cp, sp = first_carrying_angle(ab, c, sw, cs, ss, max_jerk, j_floor,
+                                               t_max)
         carried[k] = phi >= 0.0
         if phi < 0.0:
             phi, cp, sp = largest_jerk_angle(ab, c, sw, cs, ss, max_jerk, cand, t)
@@ -422,20 +434,16 @@ def _end_frame(ab, c, uv, r_curv, phi, tangent, curvature):
 
 
 @njit(cache=True, nogil=True, python_below=ARCS_PYTHON_BELOW)
-def arc_end_frames(arcs, start, center, normal, radius, sweep, helix):
+def arc_end_frames(arcs, start, center, normal, radius, sweep, helix, offset, tangent_0,
+                   curvature_0, tangent_1, curvature_1):
     """Unit tangent and curvature vector ``n / R`` (1/mm, R the curvature radius) at the start
-    and at the end of each arc ``arcs[k]``, as four ``(m, 3)`` arrays (start tangent, start
-    curvature, end tangent, end curvature) -- the junction frames of eq. 13-15
-    (``geometry.tangent_at`` and ``curvature_at``, compiled)."""
-    m = arcs.shape[0]
-    tangent_0 = np.empty((m, 3))
-    curvature_0 = np.empty((m, 3))
-    tangent_1 = np.empty((m, 3))
-    curvature_1 = np.empty((m, 3))
+    and at the end of each arc ``arcs[k]``, written into row ``arcs[k] - offset`` of the four
+    ``(m, 3)`` arrays (start tangent, start curvature, end tangent, end curvature) -- the
+    junction frames of eq. 13-15 (``geometry.tangent_at`` and ``curvature_at``, compiled)."""
     ab, uv, c = _scratch()
-    for k in range(m):
+    for k in range(arcs.shape[0]):
         a = arcs[k]
+        r = a - offset
         r_curv, _ = _terms_of(a, start, center, normal, radius, sweep, helix, ab, c, uv)
-        _end_frame(ab, c, uv, r_curv, 0.0, tangent_0[k], curvature_0[k])
-        _end_frame(ab, c, uv, r_curv, sweep[a], tangent_1[k], curvature_1[k])
-    return tangent_0, curvature_0, tangent_1, curvature_1
+        _end_frame(ab, c, uv, r_curv, 0.0, tangent_0[r], curvature_0[r])
+        _end_frame(ab, c, uv, r_curv, sweep[a], tangent_1[r], curvature_1[r])

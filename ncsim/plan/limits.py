@@ -384,20 +384,38 @@ def _junction_dwell(path, lo, hi, ncu, dwell) -> None:
 
 def _block_frames(path, lo, hi):
     """Unit tangents and curvature vectors (1/mm) of blocks lo..hi-1 at their start and at
-    their end: ``(start tangent, start curvature, end tangent, end curvature)``."""
-    d = path.end_mm[lo:hi] - path.start_mm[lo:hi]
-    length = path.length_mm[lo:hi]
+    their end: ``(start tangent, start curvature, end tangent, end curvature)``. A line's are
+    its chord direction and zero at both ends (the same arrays); an arc's come from
+    :func:`~ncsim.plan.arc_extrema.arc_end_frames`, written in place."""
+    is_arc = path.kind[lo:hi] == ARC
+    arcs = lo + np.flatnonzero(is_arc)
+    if not len(arcs):
+        tangent = _line_tangents(path, lo, hi)
+        curvature = np.zeros_like(tangent)
+        return tangent, curvature, tangent, curvature
+    m = hi - lo
+    tangent, curvature = np.empty((m, 3)), np.empty((m, 3))
+    tangent_end, curvature_end = np.empty((m, 3)), np.empty((m, 3))
+    if len(arcs) < m:
+        lines = np.flatnonzero(~is_arc)
+        tangent[lines] = tangent_end[lines] = _line_tangents(path, lo + lines)
+        curvature[lines] = curvature_end[lines] = 0.0
+    arc_end_frames(arcs, path.start_mm, path.center_mm, path.normal, path.radius_mm,
+                   path.sweep_rad, path.helix_mm, lo, tangent, curvature, tangent_end,
+                   curvature_end)
+    return tangent, curvature, tangent_end, curvature_end
+
+
+def _line_tangents(path, rows, hi=None):
+    """Chord directions of the blocks ``rows`` (an index array, or lo..hi-1); zero for a block
+    without length."""
+    if hi is not None:
+        rows = slice(rows, hi)
+    d = path.end_mm[rows] - path.start_mm[rows]
+    length = path.length_mm[rows]
     tangent = np.divide(d, length[:, None], out=d, where=length[:, None] > 0.0)
     tangent[length <= 0.0] = 0.0
-    curvature = np.zeros_like(tangent)
-    arcs = lo + np.flatnonzero(path.kind[lo:hi] == ARC)
-    if not len(arcs):
-        return tangent, curvature, tangent, curvature
-    tangent_end, curvature_end = tangent.copy(), curvature.copy()
-    (tangent[arcs - lo], curvature[arcs - lo], tangent_end[arcs - lo],
-     curvature_end[arcs - lo]) = arc_end_frames(arcs, path.start_mm, path.center_mm, path.normal,
-                                                path.radius_mm, path.sweep_rad, path.helix_mm)
-    return tangent, curvature, tangent_end, curvature_end
+    return tangent
 
 
 def _junction_limits(path, lo, hi, machine, options, cap, lim) -> None:
