@@ -291,9 +291,11 @@ def _block_limits(path, lo, hi, machine, options, j_ncu, cand, cap, limit, accel
         cap[lines], limit[lines] = _set_point(cand, local)
     local = np.flatnonzero(is_arc)
     if len(local):
-        arcs = lo + local
-        (cap[arcs], limit[arcs], accel[arcs], jerk_axis[local], vmax[local],
-         alpha_c[arcs]) = _arc_limits(path, arcs, local, machine, options, j_ncu, cand)
+        arcs = lo + local               # the kernels' rows; the arrays' through ``rows``
+        rows, local = ((arcs, local) if len(local) < hi - lo        # a run of arcs (CAM arc
+                       else (blocks, slice(None)))                  # fitting): views
+        (cap[rows], limit[rows], accel[rows], jerk_axis[local], vmax[local],
+         alpha_c[rows]) = _arc_limits(path, arcs, local, machine, options, j_ncu, cand)
 
     mode = (np.full(hi - lo, options.accel_mode, dtype=np.int8) if options.accel_mode is not None
             else path.accel_mode[blocks])
@@ -333,7 +335,8 @@ def _line_limits(path, idx, machine):
 def _arc_limits(path, arcs, local, machine, options, j_ncu, cand):
     """Set points of the arcs ``arcs`` (module docstring), from the closed-form extrema of
     eq. 7-9 over each arc's angle range (:mod:`ncsim.plan.arc_extrema`); writes their eq. 12
-    candidates into ``cand`` at ``local`` and returns ``(cap, limit, tangential accel, least
+    candidates into ``cand`` at ``local`` (their rows in the chunk: an index array, or a
+    slice when they are the whole chunk) and returns ``(cap, limit, tangential accel, least
     J_t, least V_t, alpha_c)``."""
     ncu = machine.ncu
     columns = (arcs, path.start_mm, path.center_mm, path.normal, path.radius_mm, path.sweep_rad,
