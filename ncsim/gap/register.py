@@ -443,17 +443,21 @@ def rest_offset_mm(q_mm: np.ndarray, path: Path, s_mm: np.ndarray, noise: float)
     return None, ""
 
 
-def repeat_index(path: Path, k: int, tol_mm: float = 1e-6) -> tuple[int, int]:
-    """``(n, count)``: segment ``k`` is the ``n``-th of ``count`` segments of ``path`` with the
-    same geometry up to a translation (kind, start-to-end vector, start-to-centre vector,
-    normal, sweep) -- the passes of a repeated contour."""
-    def features(idx):
-        d = path.end_mm[idx] - path.start_mm[idx]
-        c = np.nan_to_num(path.center_mm[idx] - path.start_mm[idx])
-        return np.column_stack([path.kind[idx], d, c, path.normal[idx], path.sweep_rad[idx]])
+def segment_shapes(path: Path) -> np.ndarray:
+    """Each segment's geometry up to a translation, one row per segment: kind, start-to-end
+    vector, start-to-centre vector, normal, sweep (what :func:`repeat_index` compares)."""
+    d = path.end_mm - path.start_mm
+    c = np.nan_to_num(path.center_mm - path.start_mm)
+    return np.column_stack([path.kind, d, c, path.normal, path.sweep_rad])
 
-    f = features(np.arange(path.n))
-    same = np.all(np.abs(f - features(np.array([k]))) <= tol_mm, axis=1)
+
+def repeat_index(path: Path, k: int, tol_mm: float = 1e-6,
+                 shapes: np.ndarray | None = None) -> tuple[int, int]:
+    """``(n, count)``: segment ``k`` is the ``n``-th of ``count`` segments of ``path`` with the
+    same geometry up to a translation (:func:`segment_shapes`, given as ``shapes`` when asked
+    for many segments) -- the passes of a repeated contour."""
+    f = segment_shapes(path) if shapes is None else shapes
+    same = np.all(np.abs(f - f[k]) <= tol_mm, axis=1)
     index = np.flatnonzero(same)
     return int(np.searchsorted(index, k)) + 1, int(len(index))
 
@@ -468,10 +472,11 @@ def passes_spanned(path: Path, segments: np.ndarray, pass_index: int, n_passes: 
         return None
     _, first_seen = np.unique(segments, return_index=True)
     visited = segments[np.sort(first_seen)]
+    shapes = segment_shapes(path)
 
     def pass_of_nearest(seq) -> int:
         for k in seq[:look]:
-            i, n = repeat_index(path, int(k))
+            i, n = repeat_index(path, int(k), shapes=shapes)
             if n == n_passes:
                 return i
         return pass_index
