@@ -153,7 +153,8 @@ def test_compressed_circle_has_the_circles_curvature_and_the_papers_feed(mikron_
 def test_compon_joins_ten_blocks_and_the_last_feed_applies(mikron_module):
     """COMPON/COMPCURV: one polynomial per 10 blocks, so eq. 6 applies to 10 blocks (10 x 0.1 mm
     / 12 ms = 83.3 mm/s below F 100); COMPCAD joins the whole run. FNORM: the F of a polynomial's
-    last block applies to all of it."""
+    last block applies to all of it, and a polynomial ends where the programmed F changes, so
+    that F is every block's own (no block runs faster or slower than its F)."""
     text = ("G17 G90 G71 G64 SOFT {}\nG1 X0 Y0 F6000\n" + "\n".join(f"X{0.1 * i:.1f}" for i in range(1, 41))
             + "\nM30\n")
     for word, expected in (("COMPON", 1.0 / T_CY), ("COMPCURV", 1.0 / T_CY), ("COMPCAD", F_MM_S)):
@@ -161,9 +162,13 @@ def test_compon_joins_ten_blocks_and_the_last_feed_applies(mikron_module):
                           mikron_module)
         assert lim.cap_mm_s[1:39] == pytest.approx(expected), word
     two_feeds = text.format("COMPON").replace("X0.5\n", "X0.5 F3000\n")
-    c = compress(interpret_text(two_feeds, "t.mpf", mikron_module).path, mikron_module)
-    assert c.group_feed_mm_s[1] == pytest.approx(50.0)     # blocks 1..10: the last has F3000
-    assert c.group_feed_mm_s[11] == pytest.approx(50.0)    # F3000 is modal from there on
+    path = interpret_text(two_feeds, "t.mpf", mikron_module).path
+    c = compress(path, mikron_module)
+    assert path.feed_mm_s[3] == 100.0 and path.feed_mm_s[4] == 50.0   # X0.5 F3000 is row 4
+    np.testing.assert_array_equal(c.group_feed_mm_s[c.in_run], path.feed_mm_s[c.in_run])
+    assert c.group_first[3] == 0 and c.group_first[4] == 4 and c.group_first[13] == 4
+    assert c.group_length_mm[4] == pytest.approx(1.0)      # rows 4..13: ten 0.1 mm blocks
+    assert c.group_first[14] == 14                          # then the next ten
 
 
 def test_interrupters_end_a_run(mikron_module):

@@ -16,9 +16,15 @@ COMPCAD, COMPOF)"; Basic Functions B1 "Compressor functions"; 808D Function Manu
   acceleration) join up to 10 consecutive blocks into one polynomial block; COMPCAD joins any
   number and keeps corners whose angle exceeds SD42470 ``$SC_CRIT_SPLINE_ANGLE``; COMPSURF
   (Advanced Surface) is simulated as COMPCAD;
-* circles and G0 are not compressed (MD20482 ``$MC_COMPRESSOR_MODE`` hundreds digit 0), and the
-  F of the last block of a polynomial applies to all of it (FNORM, NC programming manual
-  "Feedrate profiles with the compressor").
+* circles and G0 are not compressed (MD20482 ``$MC_COMPRESSOR_MODE`` hundreds digit 0);
+* feed (NC programming manual, Job Planning "Feedrate characteristic (FNORM, FLIN, FCUB,
+  FPO)", boundary conditions "for active compressor"): under FNORM "the F word of the last
+  block in the group applies to the spline segment"; only FCUB lets the feed deviate from the
+  programmed points, by at most MD20172 ``$MC_COMPRESS_VELO_TOL`` ("the maximum permissible
+  deviation of the path feedrate", B1, and not under COMPCAD). FLIN and FCUB are not simulated
+  (the interpreter warns), so under FNORM no deviation is permitted: a polynomial block ends
+  where the programmed F changes, and its last block's F is every block's own (a block
+  programmed F95 never runs at a neighbour's F5122, a whole run never at its last F).
 
 Representation. The polyline stays the path that is sampled (positions are the programmed
 points), but each run is *planned* as the smooth curve the compressor would make:
@@ -52,9 +58,20 @@ W_MAX, W_MAX/2, ... (starting from the neighbour's) as the widest level for whic
 smoothed point stays within the tolerance of the programmed one (each axis within MD33100,
 or the distance within CTOL), so the deviation of the planned curve from the programmed points
 never exceeds the tolerance (``tests/test_compressor.py`` checks it by integrating the kernel
-numerically). When no W at least as long as the point's adjoining blocks passes, the point
-is a corner the compressor keeps: the run is split there and the corner is crossed as a
-corner (G64 jump or a G642 rounding block). Runs are extended by straight lines along their
+numerically). A W also fails where the smoothed curve is a (near) cusp: |P'(s)| < 1/2
+(``CUSP_SPEED``), i.e. the unit tangents inside the kernel turn back on themselves by more
+than 120 deg (a reversal of a raster): the curvature there, |P''| / |P'|^2, is not the points'
+turn spread over the kernel but grows without bound as |P'| -> 0 -- curvature the points do not
+have (a 3rd- or 5th-order polynomial within the tolerance cannot turn back either). With
+|P'| >= 1/2 the fitted curvature |P''_perp| / |P'|^2 is at most 4 |P''| <= (14/3) Theta / W,
+Theta the points' total turn within the kernel's reach (P'' is the kernel times the tangent
+jumps |t_k+1 - t_k| <= theta_k, and |K| <= 7 / (6 W)): bounded by the points' own turning
+(``tests/test_compressor.py`` checks it on rasters with reversals). When no W at least as long as the point's adjoining blocks passes, the point is a
+corner the compressor keeps: the run is split there and the corner is crossed as a corner
+(G64 jump or a G642 rounding block). ``ncsim.plan.hsm`` keeps a corner also where the fitted
+curve would be slower than the programmed blocks (corner detection by speed, see there): the
+runs that lose a point are fitted again, and only they (``compress(..., previous=)``: a
+point's fit reaches no further than its run). Runs are extended by straight lines along their
 end directions so that the kernel never leaves the run. The search and the closed forms run
 in a kernel (``ncsim.jit``: compiled by numba above ``FIT_PYTHON_BELOW`` points, plain Python
 below), the rest is numpy over all runs at once.
@@ -62,7 +79,7 @@ below), the rest is numpy over all runs at once.
 Look-ahead: the rows of one polynomial block count as one block of the 840D's look-ahead
 (``PathLimits.nc_block``, :mod:`ncsim.plan.lookahead`).
 
-Everything is linear in the number of blocks.
+Everything is linear in the number of blocks (a refit costs the runs it refits).
 """
 from __future__ import annotations
 
@@ -80,6 +97,7 @@ W_MAX_MM = 8.0             # widest smoothing half-width W tried (the kernel rea
 W_LEVELS = 12              # W_MAX, W_MAX/2, ... W_MAX/2^11 (4 um)
 MAX_GROUP_BLOCKS = 10      # COMPON/COMPCURV: blocks per polynomial (840D B1)
 _SPLIT_ROUNDS = 4          # refits after splitting runs at kept corners
+CUSP_SPEED = 0.5           # least |P'| of the smoothed curve at a point: no cusps (docstring)
 _RUN_GAP_MM = 1.0          # arc-length gap between runs in the joint arrays (never evaluated)
 FIT_PYTHON_BELOW = 2_000   # points below which the fit runs as plain Python (ncsim.jit): its
                            # work per point is some 50 times a scanner kernel's
@@ -97,47 +115,112 @@ class Compression:
     curvature_1_mm: np.ndarray     # largest |kappa| of the fitted curve over the block
     normal: np.ndarray             # (n, 3) principal normal where |kappa| is largest
     curvature_change_1_mm: np.ndarray  # |kappa_vec(end) - kappa_vec(start)| over the block
-    deviation_mm: np.ndarray       # (n + 1,) distance of the fitted curve from the junction point
-    window_mm: np.ndarray          # (n + 1,) the half-width W used at the junction
+    deviation_mm: np.ndarray       # (n + 1,) distance of the fitted curve from a joined junction
+    window_mm: np.ndarray          # (n + 1,) the half-width W used at a joined junction
+    junction_curvature_1_mm: np.ndarray  # (n + 1,) |kappa| of the fitted curve at a joined junction
+    kappa_start: np.ndarray        # (n, 3) curvature vector of the fitted curve at the block start
+    kappa_end: np.ndarray          # (n, 3) ... and at its end (0 outside the runs)
 
 
-def compress(path: Path, machine: MachineSpec) -> Compression | None:
-    """The compressed runs of ``path`` (module docstring), or None when no block qualifies."""
+def compress(path: Path, machine: MachineSpec, kept: np.ndarray | None = None,
+             previous: Compression | None = None) -> Compression | None:
+    """The compressed runs of ``path`` (module docstring), or None when no block qualifies.
+
+    ``kept`` (n + 1, bool) marks junctions that must stay corners (``ncsim.plan.hsm`` keeps
+    those where the fitted curve would be slower than the programmed blocks). With
+    ``previous`` (the compression of the same path without those corners kept) only the runs
+    that lose a junction are fitted again: a point's fit reaches no further than its run."""
     n = path.n
     if n < 2 or not np.any(path.compressor != 0):
         return None
+    joined = _joinable(path, machine) if previous is None else previous.joined.copy()
+    if kept is not None:
+        joined &= ~kept
+    if previous is None:
+        fit = _FitState.empty(n)
+        dirty = joined.copy()
+    else:
+        fit = _FitState.of(previous)
+        dirty = _runs_losing(previous.joined, joined)
+    if not joined.any():
+        return None
+
+    vertex_tol = _vertex_tolerance(path)
+    for split in range(_SPLIT_ROUNDS + 1):
+        fit.clear(dirty)
+        failed = _fit_runs(path, joined & dirty, vertex_tol, machine.compress_pos_tol_mm, fit)
+        if failed is None or not failed.any() or split == _SPLIT_ROUNDS:
+            break                       # (the last fit keeps what failed: it passed before)
+        before = joined.copy()
+        joined[failed] = False          # a corner the compressor keeps: its runs are refitted
+        dirty = _runs_losing(before, joined)
+    if not joined.any():
+        return None
+    return _per_block(path, joined, fit)
+
+
+def _joinable(path: Path, machine: MachineSpec) -> np.ndarray:
+    """Junctions (n + 1) the compressor may join (module docstring): between two eligible G1
+    blocks of the same compressor, no interrupting instruction, no stop, no dwell, and under
+    COMPCAD/COMPSURF no corner above SD42470."""
+    n = path.n
     ncu = machine.ncu
     length = path.length_mm
     comp = np.abs(path.compressor)
     eligible = ((path.kind == LINE) & ~path.rapid & (comp > 0) & (length > 0.0)
                 & (length <= ncu.compress_block_path_limit_mm))
     joined = np.zeros(n + 1, dtype=bool)
-    inner = slice(1, n)
     u = line_directions(path)
     deflection = deflection_angle_rad(u[:-1], u[1:])
     keeps_corners = np.isin(comp[1:], (COMPCAD, COMPSURF))
-    joined[inner] = (eligible[:-1] & eligible[1:] & (comp[:-1] == comp[1:])
-                     & (path.compressor[1:] > 0) & ~path.stop_before[1:]
-                     & ~path.exact_stop[:-1] & (path.dwell_before_s[1:] <= 0.0)
-                     & ~(keeps_corners & (deflection > ncu.crit_spline_angle_rad)))
-    if not joined.any():
-        return None
+    joined[1:n] = (eligible[:-1] & eligible[1:] & (comp[:-1] == comp[1:])
+                   & (path.compressor[1:] > 0) & ~path.stop_before[1:]
+                   & ~path.exact_stop[:-1] & (path.dwell_before_s[1:] <= 0.0)
+                   & ~(keeps_corners & (deflection > ncu.crit_spline_angle_rad)))
+    return joined
 
-    vertex_tol = _vertex_tolerance(path)
-    for _ in range(_SPLIT_ROUNDS):
-        fit = _fit_runs(path, joined, vertex_tol, machine.compress_pos_tol_mm)
-        if fit is None:
-            return None
-        failed = fit["failed"]
-        if not failed.any():
-            break
-        joined[failed] = False
-    else:  # still failing after the last split: keep only what passed
-        joined[fit["failed"]] = False
-        fit = _fit_runs(path, joined, vertex_tol, machine.compress_pos_tol_mm)
-        if fit is None:
-            return None
-    return _per_block(path, joined, fit)
+
+@dataclass(slots=True)
+class _FitState:
+    """The fit of every block and joined junction, written run by run (``_fit_runs``)."""
+
+    kappa_start: np.ndarray     # (n, 3)
+    kappa_end: np.ndarray       # (n, 3)
+    deviation: np.ndarray       # (n + 1,)
+    window: np.ndarray          # (n + 1,)
+
+    @classmethod
+    def empty(cls, n: int) -> "_FitState":
+        return cls(np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n + 1), np.zeros(n + 1))
+
+    @classmethod
+    def of(cls, c: Compression) -> "_FitState":
+        return cls(c.kappa_start.copy(), c.kappa_end.copy(), c.deviation_mm.copy(),
+                   c.window_mm.copy())
+
+    def clear(self, junctions: np.ndarray) -> None:
+        """Forget the fit of the runs whose inner junctions are ``junctions`` (and their
+        blocks): they are fitted again."""
+        self.deviation[junctions] = 0.0
+        self.window[junctions] = 0.0
+        blocks = junctions[:-1] | junctions[1:]
+        self.kappa_start[blocks] = 0.0
+        self.kappa_end[blocks] = 0.0
+
+
+def _runs_losing(old: np.ndarray, new: np.ndarray) -> np.ndarray:
+    """The inner junctions (n + 1, bool) of the runs of ``old`` that hold a junction no
+    longer joined in ``new``."""
+    first, last = _runs(old)
+    lost = np.nonzero(old & ~new)[0]
+    out = np.zeros(len(old), dtype=bool)
+    if lost.size == 0:
+        return out
+    r = np.unique(np.searchsorted(first, lost - 1, side="right") - 1)
+    edge = np.zeros(len(old) + 1, dtype=np.int64)
+    np.add.at(edge, first[r] + 1, 1)
+    np.add.at(edge, last[r] + 1, -1)
+    return np.cumsum(edge[:-1]) > 0
 
 
 def _vertex_tolerance(path: Path) -> np.ndarray:
@@ -157,7 +240,9 @@ def _runs(joined: np.ndarray):
     return first, last
 
 
-def _fit_runs(path, joined, vertex_tol, axis_tol):
+def _fit_runs(path, joined, vertex_tol, axis_tol, state: _FitState):
+    """Fit the runs of ``joined`` into ``state``; returns the junctions whose point no W kept
+    within the tolerance (corners to keep), or None without runs."""
     first, last = _runs(joined)
     if len(first) == 0:
         return None
@@ -178,8 +263,17 @@ def _fit_runs(path, joined, vertex_tol, axis_tol):
     fit = smooth_polyline(pts, run_of, n_vert, w_floor, vertex_tol[vert], axis_tol)
     failed = np.zeros(len(joined), dtype=bool)
     failed[vert[inner & ~fit["ok"]]] = True
-    return dict(vert=vert, kappa=fit["kappa"], deviation=fit["deviation"], window=fit["window"],
-                failed=failed)
+    # each block's start and end point within its own run (a point ending one run and starting
+    # the next has a fit in each)
+    count = last - first + 1
+    rows = _ranges(first, count)
+    entry = rows + np.repeat(np.cumsum(n_vert) - n_vert - first, count)
+    state.kappa_start[rows] = fit["kappa"][entry]
+    state.kappa_end[rows] = fit["kappa"][entry + 1]
+    dev = fit["deviation"][inner]
+    state.deviation[vert[inner]] = np.sqrt(np.einsum("ij,ij->i", dev, dev))
+    state.window[vert[inner]] = fit["window"][inner]
+    return failed
 
 
 def _ranges(start: np.ndarray, count: np.ndarray) -> np.ndarray:
@@ -298,18 +392,21 @@ def _smoothed(s, q, i_pts, j_pts, unit, lo, hi, p, w, pos_out, d1_out, d2_out, t
 def _within(s, q, i_pts, j_pts, unit, lo, hi, p, w, ctol, axis_tol, sm, d1, d2, tmp_q, tmp_i,
             tmp_j):
     """Whether the smoothed point at half-width ``w`` lies within the tolerance (CTOL when not
-    NaN, else every axis within its tolerance); fills sm, d1, d2."""
+    NaN, else every axis within its tolerance) and is no cusp (``CUSP_SPEED``); fills sm, d1,
+    d2."""
     _smoothed(s, q, i_pts, j_pts, unit, lo, hi, p, w, sm, d1, d2, tmp_q, tmp_i, tmp_j)
     dist2 = 0.0
+    speed2 = 0.0
     inside = True
     for c in range(3):
         dev = sm[c] - q[p, c]
         dist2 += dev * dev
+        speed2 += d1[c] * d1[c]
         if abs(dev) > axis_tol[c]:
             inside = False
     if not np.isnan(ctol):
         inside = dist2 <= ctol * ctol
-    return inside
+    return inside and speed2 >= CUSP_SPEED * CUSP_SPEED
 
 
 @njit(cache=True, nogil=True, python_below=FIT_PYTHON_BELOW)
@@ -389,28 +486,25 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return np.divide(v, norm[:, None], out=np.zeros_like(v), where=norm[:, None] > 0.0)
 
 
-def _per_block(path: Path, joined: np.ndarray, fit: dict) -> Compression:
+def _per_block(path: Path, joined: np.ndarray, fit: _FitState) -> Compression:
     n = path.n
-    vert = fit["vert"]
-    kappa_j = np.zeros((n + 1, 3))
-    kappa_j[vert] = fit["kappa"]
-    deviation = np.zeros(n + 1)
-    deviation[vert] = np.sqrt(np.einsum("ij,ij->i", fit["deviation"], fit["deviation"]))
-    window = np.zeros(n + 1)
-    window[vert] = fit["window"]
-
     in_run = np.zeros(n, dtype=bool)
     first, last = _runs(joined)
     count = last - first + 1
     rows = _ranges(first, count)
     in_run[rows] = True
-    # polynomial blocks: the whole run (COMPCAD, COMPSURF) or chunks of MAX_GROUP_BLOCKS
+    # polynomial blocks: within a run, the blocks of one programmed F (FNORM, docstring), all of
+    # them (COMPCAD, COMPSURF) or chunks of MAX_GROUP_BLOCKS
     run_of = np.repeat(np.arange(len(first)), count)
-    rank = rows - np.repeat(first, count)
+    feed = path.feed_mm_s[rows]
+    feed_start = np.ones(len(rows), dtype=bool)      # a run or a programmed F begins
+    feed_start[1:] = (run_of[1:] != run_of[:-1]) | (feed[1:] != feed[:-1])
+    feed_first = np.nonzero(feed_start)[0]
+    rank = np.arange(len(rows)) - feed_first[np.cumsum(feed_start) - 1]
     chunked = ~np.isin(np.abs(path.compressor[rows]), (COMPCAD, COMPSURF))
     group_key = np.where(chunked, rank // MAX_GROUP_BLOCKS, 0)
-    new_group = np.ones(len(rows), dtype=bool)
-    new_group[1:] = (run_of[1:] != run_of[:-1]) | (group_key[1:] != group_key[:-1])
+    new_group = feed_start.copy()
+    new_group[1:] |= group_key[1:] != group_key[:-1]
     group_id = np.cumsum(new_group) - 1
     group_start = np.nonzero(new_group)[0]
     group_len = np.add.reduceat(path.length_mm[rows], group_start)
@@ -422,7 +516,7 @@ def _per_block(path: Path, joined: np.ndarray, fit: dict) -> Compression:
     group_first = np.full(n, -1, dtype=np.int64)
     group_first[rows] = rows[group_start][group_id]
 
-    k_start, k_end = kappa_j[:-1], kappa_j[1:]
+    k_start, k_end = fit.kappa_start, fit.kappa_end
     m_start = np.sqrt(np.einsum("ij,ij->i", k_start, k_start))
     m_end = np.sqrt(np.einsum("ij,ij->i", k_end, k_end))
     curvature = np.where(in_run, np.maximum(m_start, m_end), 0.0)
@@ -430,6 +524,11 @@ def _per_block(path: Path, joined: np.ndarray, fit: dict) -> Compression:
     normal = _unit(normal)
     change = k_end - k_start
     change = np.where(in_run, np.sqrt(np.einsum("ij,ij->i", change, change)), 0.0)
+    m_junction = np.zeros(n + 1)
+    m_junction[:-1] = np.where(joined[:-1], m_start, 0.0)   # a joined junction starts block k
     return Compression(in_run=in_run, joined=joined.copy(), group_length_mm=group_length,
-                       group_feed_mm_s=group_feed, group_first=group_first, curvature_1_mm=curvature, normal=normal,
-                       curvature_change_1_mm=change, deviation_mm=deviation, window_mm=window)
+                       group_feed_mm_s=group_feed, group_first=group_first,
+                       curvature_1_mm=curvature, normal=normal, curvature_change_1_mm=change,
+                       deviation_mm=fit.deviation, window_mm=fit.window,
+                       junction_curvature_1_mm=m_junction, kappa_start=k_start,
+                       kappa_end=k_end)

@@ -3,7 +3,20 @@
 :func:`prepare` runs before the limits (``ncsim.plan.limits.path_limits`` calls it):
 
 1. the compressor (:mod:`ncsim.plan.compressor`) finds the runs of short G1 blocks it joins
-   under COMPON/COMPCURV/COMPCAD/COMPSURF and fits their smooth curve;
+   under COMPON/COMPCURV/COMPCAD/COMPSURF and fits their smooth curve; then *corner detection
+   by speed*: where the fitted curve would hold a block below what the block allows as
+   programmed (F, eq. 7, eq. 6 on its own length) -- its curvature limits (eq. 2/8, 4/9, 11)
+   or its curvature change (eq. 13 spread) -- the compressor keeps a corner at the block's
+   joined end where the curve bends most, and the runs that lose it are fitted again (up to
+   ``_SPEED_ROUNDS`` times). B1 names the compressor's purpose, "to optimize the surface
+   quality and machining speed", and says of COMPCAD that "corners that are desirable are
+   identified as such" with SD42470 "only used as an approximate measure for corner
+   detection"; a point the smooth curve would cross slower than the programmed blocks is such a
+   corner (a tight turn of a noisy raster, where G64 crosses the corner with the MD32310 jump
+   and the curve would have to honour the path jerk). So no block of a compressed run is
+   slower than as programmed: COMPON/COMPCURV/COMPCAD are never slower than COMPOF on the same
+   points (``tests/test_hsm_properties.py``), up to the tangential acceleration a curve leaves
+   (eq. 1) where a section's ramp takes the least of its blocks;
 2. the corner rounding (:mod:`ncsim.plan.blend`) inserts the rounding blocks of G641-G645 at
    the corners left (not inside compressed runs) and smooths G645 transitions.
 
@@ -11,10 +24,11 @@
 programmed geometry cannot say:
 
 * a compressed block: eq. 6 on its polynomial block (``group_length_mm / t_cy``), the F of the
-  polynomial's last block (FNORM), the curvature limits of the fitted curve (eq. 2/8 with the
-  normal-acceleration share, eq. 11, and eq. 4/9 with the axis jerk where it exceeds J_tcurv,
-  as the paper's arcs take V_Jt at alpha_c) and its curvature change over the block (eq. 13
-  spread, TRANSITION); junctions inside a run are not corners;
+  polynomial's last block (FNORM: its own F, polynomials end at a change of F), the curvature
+  limits of the fitted curve (eq. 2/8 with the normal-acceleration share, eq. 11, and eq. 4/9
+  with the axis jerk where it exceeds J_tcurv, as the paper's arcs take V_Jt at alpha_c) and
+  its curvature change over the block (eq. 13 spread, TRANSITION), all from
+  :func:`curve_candidates`; junctions inside a run are not corners;
 * a rounding block: the closed-form feed of the clothoid rounding; its two junctions are
   smooth (no corner, no eq. 13 jump: the rounding is curvature-continuous);
 * a corner rounded in time only (an arc on one side): its crossing feed is the rounding's;
@@ -36,6 +50,9 @@ from ncsim.path import Path
 from ncsim.plan import kinematics as kin
 from ncsim.plan.blend import Rounding, round_corners
 from ncsim.plan.compressor import Compression, compress
+
+_SPEED_ROUNDS = 8     # refits after keeping the corners where the fitted curve is slower
+_SPEED_REL = 1e-9     # relative margin of "slower"
 
 # eq. 12's candidates in plan.limits' order (ties go to the earlier one)
 _CANDIDATES = (("programmed", Limit.PROGRAMMED), ("ncu_path_jerk", Limit.NCU_PATH_JERK),
@@ -103,43 +120,24 @@ class Prepared:
     def _apply_compression(self, row_of, machine, options, cap, cap_limit, accel, cand, jcap,
                            jlimit) -> None:
         c = self.compression
-        ncu = machine.ncu
         old = np.nonzero(c.in_run)[0]
         rows = row_of[old]
         path = self.path
         u = line_directions(path)[rows]
-        kappa = c.curvature_1_mm[old]
-        normal = c.normal[old]
-        radius = np.divide(1.0, kappa, out=np.full(kappa.shape, np.inf), where=kappa > 0.0)
-        cand["programmed"][rows] = c.group_feed_mm_s[old]
-        if options.cycle_time_limit:
-            cand["cycle_time"][rows] = kin.cycle_time_feed_limit_mm_s(c.group_length_mm[old],
-                                                                      ncu.ipo_cycle_s)
-        if options.ncu_path_jerk:
-            cand["ncu_path_jerk"][rows] = kin.ncu_path_jerk_feed_limit_mm_s(
-                ncu.tangential_jerk_mm_s3, radius)
-        j_t = kin.axis_tangential_jerk_limit_mm_s3(u, machine.max_jerk_mm_s3)
-        if options.axis_jerk_setpoint:
-            # as on the paper's arcs, where the set point is taken where the axes carry J_tcurv
-            # (alpha_c, §5.2.4: R 30 holds 10.53 m/min above the least V_Jt of 9.9)
-            j_set = np.maximum(j_t, ncu.tangential_jerk_mm_s3) if options.ncu_path_jerk else j_t
-            cand["axis_jerk"][rows] = kin.tangential_jerk_feed_limit_mm_s(j_set, radius)
-        a_n = ncu.normal_accel_share * kin.axis_normal_accel_limit_mm_s2(normal, machine.max_accel_mm_s2)
-        cand["axis_accel"][rows] = kin.normal_accel_feed_limit_mm_s(radius, a_n)
+        curve = curve_candidates(c, old, u, path.length_mm[rows], machine, options)
+        for key, _ in _CANDIDATES:
+            if key in curve:
+                cand[key][rows] = curve[key]
         value, which = kin.feed_set_point_mm_s(*[cand[key][rows] for key, _ in _CANDIDATES])
         codes = np.array([int(lim) for _, lim in _CANDIDATES], dtype=np.int8)
         limit = codes[which]
-        if options.transition_crossing:
-            v_change = kin.curvature_change_feed_mm_s(j_t, ncu.transition_time_s,
-                                                      c.curvature_change_1_mm[old],
-                                                      path.length_mm[rows])
-            lower = v_change < value
-            value = np.where(lower, v_change, value)
-            limit = np.where(lower, np.int8(Limit.TRANSITION), limit)
+        lower = curve["transition"] < value
+        value = np.where(lower, curve["transition"], value)
+        limit = np.where(lower, np.int8(Limit.TRANSITION), limit)
         cap[rows] = value
         cap_limit[rows] = limit
-        normal_accel = value * value * kappa
-        available = kin.tangential_accel_available_mm_s2(u, normal, normal_accel,
+        normal_accel = value * value * c.curvature_1_mm[old]
+        available = kin.tangential_accel_available_mm_s2(u, c.normal[old], normal_accel,
                                                          machine.max_accel_mm_s2)
         accel[rows] = np.minimum(accel[rows], np.maximum(available, 1e-9 * accel[rows]))
         joined = np.nonzero(c.joined)[0]
@@ -148,9 +146,79 @@ class Prepared:
         jlimit[junction_of[joined]] = Limit.NONE
 
 
+def curve_candidates(c: Compression, old, u, length_mm, machine: MachineSpec,
+                     options: ModelOptions) -> dict[str, np.ndarray]:
+    """What the fitted curve of the compressed blocks ``old`` (rows of the programmed path;
+    ``u`` their directions, ``length_mm`` their lengths) puts in eq. 12 (module docstring):
+    ``programmed`` (the polynomial block's F, FNORM), ``cycle_time`` (eq. 6 on the polynomial
+    block), ``ncu_path_jerk`` (eq. 11), ``axis_jerk`` (eq. 4/9), ``axis_accel`` (eq. 2/8) on
+    the fitted curvature, and ``transition``: its curvature change over the block crossed as
+    eq. 13 spread over the block (+inf where a limit is off)."""
+    ncu = machine.ncu
+    kappa = c.curvature_1_mm[old]
+    radius = np.divide(1.0, kappa, out=np.full(kappa.shape, np.inf), where=kappa > 0.0)
+    inf = np.full(len(old), np.inf)
+    out = {"programmed": kin.overridden_feed_mm_s(c.group_feed_mm_s[old], ncu.feed_override),
+           "cycle_time": inf, "ncu_path_jerk": inf, "axis_jerk": inf, "transition": inf}
+    if options.cycle_time_limit:
+        out["cycle_time"] = kin.cycle_time_feed_limit_mm_s(c.group_length_mm[old], ncu.ipo_cycle_s)
+    if options.ncu_path_jerk:
+        out["ncu_path_jerk"] = kin.ncu_path_jerk_feed_limit_mm_s(ncu.tangential_jerk_mm_s3, radius)
+    j_t = kin.axis_tangential_jerk_limit_mm_s3(u, machine.max_jerk_mm_s3)
+    if options.axis_jerk_setpoint:
+        # as on the paper's arcs, where the set point is taken where the axes carry J_tcurv
+        # (alpha_c, §5.2.4: R 30 holds 10.53 m/min above the least V_Jt of 9.9)
+        j_set = np.maximum(j_t, ncu.tangential_jerk_mm_s3) if options.ncu_path_jerk else j_t
+        out["axis_jerk"] = kin.tangential_jerk_feed_limit_mm_s(j_set, radius)
+    a_n = ncu.normal_accel_share * kin.axis_normal_accel_limit_mm_s2(c.normal[old],
+                                                                      machine.max_accel_mm_s2)
+    out["axis_accel"] = kin.normal_accel_feed_limit_mm_s(radius, a_n)
+    if options.transition_crossing:
+        out["transition"] = kin.curvature_change_feed_mm_s(
+            j_t, ncu.transition_time_s, c.curvature_change_1_mm[old], length_mm)
+    return out
+
+
+def _slower_junctions(c: Compression, path: Path, machine: MachineSpec,
+                      options: ModelOptions) -> np.ndarray:
+    """Junctions (n + 1, bool) the compressor keeps as corners because its curve would be
+    slower than the programmed blocks (module docstring, "corner detection by speed"): for
+    every compressed block whose curve limits (eq. 2/8, 4/9, 11 and the curvature change) fall
+    below what the block allows as programmed -- F, eq. 7, eq. 6 on its own length -- its
+    joined end where the fitted curve bends most."""
+    ncu = machine.ncu
+    old = np.nonzero(c.in_run)[0]
+    u = line_directions(path)[old]
+    curve = curve_candidates(c, old, u, path.length_mm[old], machine, options)
+    v_curve = np.minimum.reduce([curve[key] for key in
+                                 ("ncu_path_jerk", "axis_jerk", "axis_accel", "transition")])
+    v_programmed = np.minimum(
+        kin.overridden_feed_mm_s(path.feed_mm_s[old], ncu.feed_override),
+        kin.axis_velocity_feed_limit_mm_s(u, machine.max_velocity_mm_s))
+    if options.cycle_time_limit:
+        v_programmed = np.minimum(v_programmed, kin.cycle_time_feed_limit_mm_s(
+            path.length_mm[old], ncu.ipo_cycle_s))
+    slow = old[v_curve < v_programmed * (1.0 - _SPEED_REL)]
+    kept = np.zeros(path.n + 1, dtype=bool)
+    if slow.size:
+        k_start = np.where(c.joined[slow], c.junction_curvature_1_mm[slow], -1.0)
+        k_end = np.where(c.joined[slow + 1], c.junction_curvature_1_mm[slow + 1], -1.0)
+        kept[np.where(k_end > k_start, slow + 1, slow)] = True
+    return kept
+
+
 def prepare(path: Path, machine: MachineSpec, options: ModelOptions) -> Prepared:
     """The compressor's runs and the rounding blocks of ``path`` (module docstring)."""
     compression = compress(path, machine)
+    kept = np.zeros(path.n + 1, dtype=bool)
+    for _ in range(_SPEED_ROUNDS):
+        if compression is None:
+            break
+        slower = _slower_junctions(compression, path, machine, options)
+        if not slower.any():
+            break
+        kept |= slower
+        compression = compress(path, machine, kept, previous=compression)
     smooth = (compression.joined if compression is not None
               else np.zeros(path.n + 1, dtype=bool))
     rounding = round_corners(path, machine, options, smooth)
