@@ -157,10 +157,17 @@ def test_thws_programs_run_with_the_modes_cycle832_selects(thws_results, shared,
             assert set(p.cp_mode[rows]) == {60} and np.isnan(p.ctol_mm[rows]).all()
 
 
-def test_thws_programs_plan_with_rounding_blocks(thws_results):
-    """Planned on the MIKRON, the G642 corners become rounding blocks where its G64 jump
-    (A_x (2 - 1) t_cy = 30 mm/s at 90 deg) is below the feed; the plan is finite."""
+def test_thws_programs_plan_with_rounding_blocks(thws_results, mikron):
+    """Planned on the MIKRON, whose G64 jump is A_x (2 - 1) t_cy = 30 mm/s at 90 deg, the
+    0.02 mm roundings of the G642 corners would be slower than G64 (``plan.blend``): the corners
+    stay G64 corners. Where G64 stops at a corner (MD32310 = 1) they become rounding blocks,
+    and then save time. The plans are finite."""
+    stops = mikron.with_axes(max_accel_ovl_factor=1.0)
     for name, r in thws_results.items():
-        planned = simulate_path(r.path, "mikron")
-        assert planned.path.n > r.path.n, name
+        planned = simulate_path(r.path, mikron)
+        assert planned.path.n == r.path.n, name
         assert np.isfinite(planned.cycle_time_s) and planned.cycle_time_s > 0
+        rounded = simulate_path(r.path, stops)
+        assert rounded.path.n > r.path.n, name
+        unrounded = simulate_path(r.path.replace_columns(cp_mode=64), stops)
+        assert rounded.cycle_time_s < unrounded.cycle_time_s, name

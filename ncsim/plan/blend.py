@@ -22,7 +22,15 @@ tolerances (G642/G643)", "G645"; Job Planning "CTOL, OTOL, ATOL"):
   under G643 or with MD20490 ``$MC_IGNORE_OVL_FACTOR_FOR_ADIS`` -- nor "between two very short
   blocks", whose intermediate block would double the time: here, when an adjoining block is
   shorter than its feed covers in one interpolation cycle (such corners run as G64, the
-  manual's implicit G64);
+  manual's implicit G64); nor -- ncsim's reading of the same rule, the rounding being there to
+  keep the path from slowing down at the corner -- where the rounding block would be slower
+  than the G64 corner it replaces: its feed must reach what G64 reaches at the rounding
+  distance d from the corner (one ramp from the G64 crossing feed, eq. 16, with the blocks'
+  jerk and acceleration; :func:`_g64_feed_around_mm_s`). Then the blocks approach the rounding
+  as G64 would approach the corner and it is nowhere slower, so rounding never costs time
+  against G64 and a larger tolerance (a longer, flatter rounding) never costs time against a
+  smaller one (``tests/test_hsm_properties.py``). A tiny tolerance at a high feed -- a
+  rounding at ADIS / t_cy far below the corner's G64 jump -- is crossed as G64 then;
 * "every interpolated block, even an intermediate rounding block, contains at least one
   interpolation point. The maximum path velocity is thereby limited to ADIS / interpolation
   cycle" (eq. 6 for the rounding block: d / t_cy, d its rounding distance);
@@ -69,6 +77,7 @@ from ncsim.machine import MachineSpec
 from ncsim.motion import Limit, ModelOptions
 from ncsim.path import ARC, LINE, SOFT, Path, path_columns
 from ncsim.plan import kinematics as kin
+from ncsim.plan.ramps import ramp_distance_mm, ramp_reach_mm_s, ramp_time_s
 
 ROUNDING_MODES = (641, 642, 643, 644, 645)
 BLOCK_SHARE = 0.4                 # rounding distance <= 40 % of what is left of a block (B1 G641)
@@ -76,6 +85,7 @@ TANGENT_TOL_RAD = 1e-4            # deflection above which a junction is a corne
 CURVATURE_TOL_REL = 1e-6          # relative curvature jump that counts as a transition
 _MAX_DEFLECTION_RAD = np.pi - 1e-6  # a reversal cannot be rounded
 _SMALL_RAD = 1e-6                 # below: the small-angle series of the clothoid pair
+_FEED_REL = 1e-9                  # relative margin when comparing crossing feeds
 
 
 def clothoid_pair_shape(deflection_rad) -> tuple[np.ndarray, np.ndarray]:
@@ -225,11 +235,15 @@ def round_corners(path: Path, machine: MachineSpec, options: ModelOptions,
     always = (mode[ci] == 643) | ncu.ignore_ovl_factor_for_adis
     short = np.minimum(length[ac], length[bc]) < np.minimum(feed_a, feed_b) * ncu.ipo_cycle_s
     short &= options.cycle_time_limit
-    rounded = (d > 0.0) & (v_blend > 0.0) & ~short & (always | (v64 < v_adjacent))
+    v_corner = np.minimum(v64, v_adjacent)          # the corner as G64 crosses it
+    both_lines = (path.kind[ac] == LINE) & (path.kind[bc] == LINE)
+    faster = np.where(both_lines, _rounding_saves_time(
+        machine, options, soft, t1c, t2c, v_corner, np.maximum(v_blend, 1e-300), blend_len, d,
+        length[ac], length[bc], v_adjacent), v_blend >= v_corner * (1.0 - _FEED_REL))
+    rounded = (d > 0.0) & (v_blend > 0.0) & ~short & (always | (v64 < v_adjacent)) & faster
     if not rounded.any() and transitions is None:
         return None
 
-    both_lines = (path.kind[ac] == LINE) & (path.kind[bc] == LINE)
     ins = np.nonzero(rounded & both_lines)[0]      # positions in ci
     in_time = np.nonzero(rounded & ~both_lines)[0]
     new_path, row_of, blend_row = _insert_blends(path, k[ci[ins]], t1c[ins], t2c[ins], phic[ins],
@@ -251,6 +265,51 @@ def round_corners(path: Path, machine: MachineSpec, options: ModelOptions,
                     junction_row=junction_of[k[ci[in_time]]], junction_feed_mm_s=v_blend[in_time],
                     junction_limit=v_limit[in_time], transition_row=tr_rows.astype(np.int64),
                     transition_feed_mm_s=tr_feed, deviation_mm=deviation[rounded])
+
+
+def _rounding_saves_time(machine, options, soft, t1, t2, v_corner, v_blend, blend_len, d,
+                         length_before, length_after, v_adjacent) -> np.ndarray:
+    """Whether the rounding block (length ``blend_len``, crossed at ``v_blend``, its ends ``d``
+    from the corner) takes no longer than the G64 corner it replaces (crossed at ``v_corner``)
+    over the stretch around the corner: on each side, half the block (its other end belongs
+    to the next corner). G64 leaves the corner with one ramp up to the block's set point (F,
+    eq. 7, eq. 6 on the block); the rounding holds v_blend over its length, then ramps along
+    the trimmed block (eq. 6 on what is left). Ramps are the planner's, with the block's jerk
+    and acceleration (:func:`cover_time_s`, as ``plan.limits`` gives a line: SOFT J_t and
+    J_tcurv, BRISK A / t_cy); the approach to the corner is the same law run backwards."""
+    ncu = machine.ncu
+    t_g64 = np.zeros(len(v_corner))
+    t_round = blend_len / v_blend
+    for t, block in ((t1, length_before), (t2, length_after)):
+        accel = kin.axis_tangential_accel_limit_mm_s2(t, machine.max_accel_mm_s2)
+        jerk = kin.axis_tangential_jerk_limit_mm_s3(t, machine.max_jerk_mm_s3)
+        if options.ncu_path_jerk:
+            jerk = np.minimum(jerk, ncu.tangential_jerk_mm_s3)
+        jerk = np.where(soft, jerk, kin.brisk_jerk_mm_s3(accel, ncu.ipo_cycle_s))
+        top, top_trimmed = v_adjacent, v_adjacent
+        if options.cycle_time_limit:
+            top = np.minimum(top, kin.cycle_time_feed_limit_mm_s(block, ncu.ipo_cycle_s))
+            top_trimmed = np.minimum(v_adjacent, kin.cycle_time_feed_limit_mm_s(block - d,
+                                                                              ncu.ipo_cycle_s))
+        window = 0.5 * block
+        t_g64 += cover_time_s(v_corner, window, jerk, accel, top)
+        t_round += cover_time_s(v_blend, window - d, jerk, accel, top_trimmed)
+    return t_round <= t_g64 * (1.0 + _FEED_REL)
+
+
+def cover_time_s(v0_mm_s, distance_mm, jerk_mm_s3, accel_mm_s2, v_top_mm_s) -> np.ndarray:
+    """Time to cover ``distance_mm`` from feed v0 at zero acceleration: one ramp of the planner
+    (eq. 16: jerk J, acceleration A, zero acceleration at both ends) up to v_top, then v_top
+    held; where the distance is too short for that ramp, the ramp to the highest feed it
+    reaches within it (v0 above v_top starts at v_top)."""
+    top = np.asarray(v_top_mm_s, dtype=np.float64)
+    v0 = np.minimum(np.asarray(v0_mm_s, dtype=np.float64), top)
+    x = np.maximum(np.asarray(distance_mm, dtype=np.float64), 0.0)
+    ramp = ramp_distance_mm(v0, top, jerk_mm_s3, accel_mm_s2)
+    full = ramp_time_s(top - v0, jerk_mm_s3, accel_mm_s2) + (x - ramp) / top
+    v1 = np.minimum(ramp_reach_mm_s(v0, x, jerk_mm_s3, accel_mm_s2), top)
+    part = ramp_time_s(v1 - v0, jerk_mm_s3, accel_mm_s2)
+    return np.where(x >= ramp, full, part)
 
 
 def _tolerance_mm(path, machine, a, t1, t2) -> np.ndarray:
