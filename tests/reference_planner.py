@@ -160,13 +160,13 @@ def plan_reference(path, machine, options, limits, creep_tol=0.01):
     secs = solve(knots, p)
     for _ in range(8):
         # walk along the path growing groups of sections while the group's highest peak
-        # stays below its lowest set point (the joined knots' caps included)
+        # stays at or below its lowest set point (the joined knots' caps included)
         remove = set()
         group_cap, group_peak = secs[0]["cap"], secs[0]["peak"]
         for i in range(1, len(secs)):
             new_cap = min(group_cap, secs[i]["cap"], p[knots[i]])
             new_peak = max(group_peak, secs[i]["peak"])
-            if knots[i] not in keep and new_peak < new_cap * (1 - 1e-6):
+            if knots[i] not in keep and new_peak <= new_cap * (1 + 1e-9):
                 remove.add(knots[i])
                 group_cap, group_peak = new_cap, new_peak
             else:

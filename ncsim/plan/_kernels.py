@@ -508,8 +508,10 @@ def reach_array(v0, distance, jerk, accel):
 @njit(cache=True)
 def removable_knots(peaks, caps, knot_caps, keep):
     """Which inner knots to remove (ncsim.plan.lookahead._refine_knots): walking along the path, a knot
-    goes when the group of sections it joins keeps its highest peak below its lowest set
-    point (section set points and the removed knots' caps), so merging never slows a section.
+    goes when the group of sections it joins keeps its highest peak at or below its lowest set
+    point (section set points and the removed knots' caps), so merging never slows a section
+    (a section that holds its set point merges too: a knot where the feed falls through a
+    rising set point is no zero-acceleration point of the law).
     ``knot_caps``/``keep`` are indexed by knot (0 and the last are never removed)."""
     n_sec = peaks.shape[0]
     remove = np.zeros(n_sec + 1, dtype=np.bool_)
@@ -518,7 +520,7 @@ def removable_knots(peaks, caps, knot_caps, keep):
     for i in range(1, n_sec):
         new_cap = min(group_cap, caps[i], knot_caps[i])
         new_peak = max(group_peak, peaks[i])
-        if not keep[i] and new_peak < new_cap * (1.0 - 1e-6):
+        if not keep[i] and new_peak <= new_cap * (1.0 + 1e-9):
             remove[i] = True
             group_cap, group_peak = new_cap, new_peak
         else:

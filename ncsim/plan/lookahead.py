@@ -299,7 +299,7 @@ def _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end,
     is only a zero-acceleration stop in the middle of a ramp: it is removed and the sections
     merge (set point, jerk and acceleration = the smallest ones, the removed junction's cap
     included), which keeps every cap. Removal walks along the path in groups
-    (``_kernels.removable_knots``): a group grows only while its highest peak stays below its
+    (``_kernels.removable_knots``): a group grows only while its highest peak stays at or below its
     lowest set point, so a merge never lowers the set point under a section's peak.
 
     One condition is on the state, not the feed: with a finite look-ahead the tool must be
