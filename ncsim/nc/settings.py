@@ -54,6 +54,15 @@ HANDLED_COMMANDS = frozenset(
     | {"FFWON", "FFWOF", "STOPRE", "TRAFOOF", "FNORM", "CFC", "MCALL", "SUPA", "RET", "GOTOS"})
 
 
+def _tolerance_deleted(ctx, word: str, value: float, col: int, restored: str) -> None:
+    """A negative CTOL/OTOL deletes the programmed tolerance (Job Planning "CTOL, OTOL, ATOL":
+    "deleted by means of the assignment of a negative value"; its example ``CTOL=-1``): said at
+    the word, as nothing changes its meaning without a word."""
+    ctx.warn("tolerance deleted", f"{word}={format_value(value)}: a negative value deletes the "
+             f"programmed tolerance (Job Planning \"CTOL, OTOL, ATOL\"); {restored} applies "
+             f"again", col)
+
+
 def compressible(ctx) -> bool:
     """A block of the simple form the compressor takes: ``N.. G1 X.. Y.. Z.. F..`` (positions
     may be expressions, R parameters may be assigned, CTOL/OTOL "do not interrupt compression";
@@ -205,11 +214,17 @@ class Settings:
                     raise ctx.error(f"{key} must not be negative", col)
                 setattr(st, attr, value * st.length_scale)
         if "CTOL" in values:   # a negative value deletes it: the machine data apply again
-            value = values["CTOL"][0]
+            value, col = values["CTOL"]
             st.ctol_mm = value * st.length_scale if value >= 0.0 else math.nan
+            if value < 0.0:
+                _tolerance_deleted(ctx, "CTOL", value, col, "the machine data's contour "
+                                   "tolerance (MD33100 per axis, or SD42465 per MD20480)")
         if "OTOL" in values:
-            value = values["OTOL"][0]
+            value, col = values["OTOL"]
             st.otol_deg = value if value >= 0.0 else math.nan
+            if value < 0.0:
+                _tolerance_deleted(ctx, "OTOL", value, col, "the machine data's "
+                                   "orientation tolerance (SD42466)")
         if state.feed_type in PER_REVOLUTION or "feed_type" in ctx.gcodes:
             self._path_feed()
 
