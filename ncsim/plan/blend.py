@@ -23,14 +23,16 @@ tolerances (G642/G643)", "G645"; Job Planning "CTOL, OTOL, ATOL"):
   blocks", whose intermediate block would double the time: here, when an adjoining block is
   shorter than its feed covers in one interpolation cycle (such corners run as G64, the
   manual's implicit G64); nor -- ncsim's reading of the same rule, the rounding being there to
-  keep the path from slowing down at the corner -- where the rounding block would be slower
-  than the G64 corner it replaces: its feed must reach what G64 reaches at the rounding
-  distance d from the corner (one ramp from the G64 crossing feed, eq. 16, with the blocks'
-  jerk and acceleration; :func:`_g64_feed_around_mm_s`). Then the blocks approach the rounding
-  as G64 would approach the corner and it is nowhere slower, so rounding never costs time
-  against G64 and a larger tolerance (a longer, flatter rounding) never costs time against a
-  smaller one (``tests/test_hsm_properties.py``). A tiny tolerance at a high feed -- a
-  rounding at ADIS / t_cy far below the corner's G64 jump -- is crossed as G64 then;
+  keep the path from slowing down at the corner -- where the rounding block would take longer
+  than the G64 corner it replaces (:func:`_rounding_saves_time`: the planner's ramps away
+  from the G64 crossing against the rounding held at its feed and the ramps from its ends,
+  over half of each adjoining block). So rounding never costs time against G64, and a larger
+  tolerance (a longer, flatter rounding) none against a smaller one
+  (``tests/test_hsm_properties.py``). The rounding block is planned at the feed of its peak
+  curvature over its whole length (below), which is pessimistic for a clothoid whose
+  curvature falls to 0 at both ends: a small tolerance at a high feed -- a rounding held at a
+  few mm/s by eq. 11 or ADIS / t_cy, against the MIKRON's 30 mm/s G64 jump at 90 deg -- stays
+  a G64 corner (``tests/test_cycle832.py``: the THWS programs' 0.02 mm roundings);
 * "every interpolated block, even an intermediate rounding block, contains at least one
   interpolation point. The maximum path velocity is thereby limited to ADIS / interpolation
   cycle" (eq. 6 for the rounding block: d / t_cy, d its rounding distance);
