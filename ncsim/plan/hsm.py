@@ -179,15 +179,16 @@ def curve_candidates(c: Compression, old, u, length_mm, machine: MachineSpec,
     return out
 
 
-def _slower_junctions(c: Compression, path: Path, machine: MachineSpec,
-                      options: ModelOptions) -> np.ndarray:
+def _slower_junctions(c: Compression, path: Path, machine: MachineSpec, options: ModelOptions,
+                      blocks: np.ndarray | None = None) -> np.ndarray:
     """Junctions (n + 1, bool) the compressor keeps as corners because its curve would be
     slower than the programmed blocks (module docstring, "corner detection by speed"): for
     every compressed block whose curve limits (eq. 2/8, 4/9, 11 and the curvature change) fall
     below what the block allows as programmed -- F, eq. 7, eq. 6 on its own length -- its
-    joined end where the fitted curve bends most."""
+    joined end where the fitted curve bends most. ``blocks`` (n, bool): only those (the ones
+    refitted since the last look)."""
     ncu = machine.ncu
-    old = np.nonzero(c.in_run)[0]
+    old = np.nonzero(c.in_run if blocks is None else c.in_run & blocks)[0]
     u = line_directions(path)[old]
     curve = curve_candidates(c, old, u, path.length_mm[old], machine, options)
     v_curve = np.minimum.reduce([curve[key] for key in
@@ -211,14 +212,19 @@ def prepare(path: Path, machine: MachineSpec, options: ModelOptions) -> Prepared
     """The compressor's runs and the rounding blocks of ``path`` (module docstring)."""
     compression = compress(path, machine)
     kept = np.zeros(path.n + 1, dtype=bool)
+    refitted = None                                  # first round: every compressed block
     for _ in range(_SPEED_ROUNDS):
         if compression is None:
             break
-        slower = _slower_junctions(compression, path, machine, options)
+        slower = _slower_junctions(compression, path, machine, options, refitted)
         if not slower.any():
             break
         kept |= slower
-        compression = compress(path, machine, kept, previous=compression)
+        before = compression
+        compression = compress(path, machine, kept, previous=before)
+        if compression is not None:
+            refitted = (np.any(compression.kappa_start != before.kappa_start, axis=1)
+                        | np.any(compression.kappa_end != before.kappa_end, axis=1))
     smooth = (compression.joined if compression is not None
               else np.zeros(path.n + 1, dtype=bool))
     rounding = round_corners(path, machine, options, smooth)
