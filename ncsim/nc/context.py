@@ -212,10 +212,14 @@ class InterpreterState:
         ncu = machine.ncu if machine is not None else None
         self.circle_const_mm = ncu.circle_error_const_mm if ncu else DEFAULT_CIRCLE_ERROR_CONST_MM
         self.circle_factor = ncu.circle_error_factor if ncu else DEFAULT_CIRCLE_ERROR_FACTOR
-        # never replaced: collaborators keep a reference; groups 10 (path mode) and 30
-        # (compressor) start at the machine's reset values (MD20150 $MC_GCODE_RESET_VALUES)
-        self.st = (ModalState(cp_mode=ncu.reset_path_mode, compressor=ncu.reset_compressor)
+        # never replaced: collaborators keep a reference; groups 10 (path mode), 30
+        # (compressor), 6 (plane) and 29 (diameter programming) start at the machine's reset
+        # values (MD20150 $MC_GCODE_RESET_VALUES)
+        self.st = (ModalState(cp_mode=ncu.reset_path_mode, compressor=ncu.reset_compressor,
+                              plane=ncu.reset_plane, diameter=ncu.reset_diameter_mode)
                    if ncu else ModalState())
+        #: MD20100 $MC_DIAMETER_AX_DEF: the transverse axis (0 = X), :mod:`ncsim.nc.diameter`
+        self.diameter_axis = ncu.diameter_axis if ncu else 0
         # the reset values CYCLE832's deselection returns to (MD20150 $MC_GCODE_RESET_VALUES)
         self.reset_values = (self.st.cp_mode, self.st.accel_mode, self.st.ffw)
         self.cycle832_notes: set = set()   # one-time CYCLE832 warnings already given
@@ -237,6 +241,7 @@ class InterpreterState:
         self.warnings = Warnings()
         self.recorded: list[RecordedCall] = []
         self.units: dict = {}              # name -> ncsim.nc.flow.Unit (PROCs and files)
+        self.macros: dict = {}             # DEFINE ... AS of the definitions files
         self.out: PathOutput | None = None
         self.ended = False
         self.line = 0                      # line of the block being executed
