@@ -36,6 +36,15 @@ G0_TO_G1_MODES = (0, 1, 2, 3)
 #: operator-panel overrides a machine file may hold (what a recording was made with), percent
 MAX_OVERRIDE_PERCENT = 200.0
 WORK_OFFSET_NAMES = ("G54", "G55", "G56", "G57")
+#: ``[machine] type`` -> the reset values it implies unless ``[ncu]`` gives them: the plane (G
+#: group 6) and diameter programming (G group 29) of MD20150 $MC_GCODE_RESET_VALUES. A lathe
+#: is set up with G18 (the Z-X turning plane) and DIAMON on its transverse axis X (MD20100
+#: $MC_DIAMETER_AX_DEF), a milling machine keeps the 840D's G17 and DIAMOF (Programming Manual
+#: Fundamentals, "Dimensions for turning and milling"; "Plane selection: G17 to G19")
+MACHINE_TYPES = {"milling": {"reset_plane": 17, "reset_diameter_mode": 0},
+                 "turning": {"reset_plane": 18, "reset_diameter_mode": 1}}
+PLANES = {"G17": 17, "G18": 18, "G19": 19}
+DIAMETER_MODES = {"DIAMOF": 0, "DIAMON": 1, "DIAM90": 2}
 
 
 @dataclass(frozen=True, slots=True)
@@ -85,6 +94,9 @@ class NcuSpec:
     # SD42110 $SC_DEFAULT_FEED: the path feed before any F (0 as delivered: a G1/G2/G3 before
     # any F is then alarm 10860 "no feed programmed"); see InterpreterState
     default_feed_mm_s: float = 0.0
+    reset_plane: int = 17                     # MD20150 $MC_GCODE_RESET_VALUES, group 6 (17, 18, 19)
+    reset_diameter_mode: int = 0              # MD20150, group 29: 0 DIAMOF, 1 DIAMON, 2 DIAM90
+    diameter_axis: int = 0                    # MD20100 $MC_DIAMETER_AX_DEF: the transverse axis (X)
 
     @property
     def g642_contour_tolerance(self) -> bool:
@@ -162,6 +174,8 @@ class MachineSpec:
     cycle832: Cycle832Spec = field(default_factory=Cycle832Spec)
     #: values of system variables programs read (``"$AN_NCK_VERSION"``, ``"$MA_X[Z]"``)
     system_variables: tuple[tuple[str, float | str], ...] = ()
+    #: ``[machine] type``: "milling" or "turning" (a lathe: G18 and DIAMON at reset, MACHINE_TYPES)
+    kind: str = "milling"
 
     def axis(self, name: str) -> AxisSpec:
         for a in self.axes:
@@ -282,7 +296,8 @@ _NCU_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
 )
 #: [ncu] keys that are not plain numbers (read in machine_from_dict)
 _NCU_OTHER_KEYS = ("smoothing_mode", "ignore_ovl_factor_for_adis", "reset_path_mode",
-                   "exact_pos_mode_g0_to_g1", "reset_compressor")
+                   "exact_pos_mode_g0_to_g1", "reset_compressor", "reset_plane",
+                   "reset_diameter_mode", "diameter_axis")
 #: the key of earlier versions that MD32310 replaced: the G64 velocity jump was
 #: ``corner_velocity_jump_factor`` x A t_IPO, it is A (max_accel_ovl_factor - 1) t_IPO per axis
 _OLD_CORNER_KEY = "corner_velocity_jump_factor"
@@ -348,9 +363,13 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
     data = _read_old_corner_key(data, c)
 
     mtab = c.table(data, "machine", required=True)
-    c.unknown(mtab, "machine", {"name", "description"})
+    c.unknown(mtab, "machine", {"name", "description", "type"})
     name = c.string(mtab, "machine", "name", required="machine" in data)
     description = c.string(mtab, "machine", "description") or ""
+    kind = (c.string(mtab, "machine", "type") or "milling").lower()
+    if kind not in MACHINE_TYPES:
+        c.add("machine.type", f"must be one of {', '.join(MACHINE_TYPES)}, got {kind!r}")
+        kind = "milling"
 
     atab = c.table(data, "axes", required=True)
     axes = []
@@ -405,6 +424,15 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
             ncu_values["reset_compressor"] = COMPRESSOR_CODES[comp.upper()]
         else:
             c.add("ncu.reset_compressor", f"must be one of {', '.join(COMPRESSOR_CODES)}, got {comp!r}")
+    ncu_values.update(MACHINE_TYPES[kind])
+    for key, choices in (("reset_plane", PLANES), ("reset_diameter_mode", DIAMETER_MODES),
+                         ("diameter_axis", {a: i for i, a in enumerate(AXIS_NAMES)})):
+        text = c.string(ntab, "ncu", key)
+        if text is not None:
+            if text.upper() in choices:
+                ncu_values[key] = choices[text.upper()]
+            else:
+                c.add(f"ncu.{key}", f"must be one of {', '.join(choices)}, got {text!r}")
     g0g1 = c.integer(ntab, "ncu", "exact_pos_mode_g0_to_g1", minimum=0, maximum=3)
     if g0g1 is not None:
         ncu_values["exact_pos_mode_g0_to_g1"] = g0g1
@@ -434,7 +462,7 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
                        ncu=NcuSpec(**ncu_values), source=file,
                        work_offsets_mm=tuple(offsets), structure=StructureSpec(**svalues),
                        warnings=tuple(c.warnings), cycle832=cycle832,
-                       system_variables=sysvars)
+                       system_variables=sysvars, kind=kind)
 
 
 _SYSVAR_KEY = re.compile(r"^\$[A-Z_][A-Z0-9_]*(\[[A-Z0-9_]+(,[A-Z0-9_]+)*\])?$")
@@ -579,7 +607,7 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
     if header:
         lines += [f"# {h}" if h else "#" for h in header.splitlines()]
         lines.append("")
-    lines += ["[machine]", f"name = {_q(spec.name)}"]
+    lines += ["[machine]", f"name = {_q(spec.name)}", f"type = {_q(spec.kind)}"]
     if spec.description:
         lines.append(f"description = {_q(spec.description)}")
     for a in spec.axes:
@@ -618,7 +646,10 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
               f"exact_pos_mode_g0_to_g1 = {n.exact_pos_mode_g0_to_g1}  # MD20552 $MC_EXACT_POS_MODE_G0_TO_G1",
               f"rapid_override_percent = {_f(share_to_percent(n.rapid_override))}  # rapid-traverse override in force",
               f"feed_override_percent = {_f(share_to_percent(n.feed_override))}  # feed override in force",
-              f"default_feed_mm_min = {_f(mm_s_to_mm_min(n.default_feed_mm_s))}  # SD42110 $SC_DEFAULT_FEED"]
+              f"default_feed_mm_min = {_f(mm_s_to_mm_min(n.default_feed_mm_s))}  # SD42110 $SC_DEFAULT_FEED",
+              f"reset_plane = \"G{n.reset_plane}\"  # MD20150 (group 6)",
+              f"reset_diameter_mode = {_q(_name_of(DIAMETER_MODES, n.reset_diameter_mode))}  # MD20150 (group 29)",
+              f"diameter_axis = {_q(AXIS_NAMES[n.diameter_axis])}  # MD20100 $MC_DIAMETER_AX_DEF"]
     if spec.work_offsets_mm:
         lines += ["", "[work_offsets]"]
         for key, (x, y, z) in spec.work_offsets_mm:
@@ -646,6 +677,10 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
 def path_mode_name(code: int) -> str:
     """``60`` -> ``"G60"`` (a group-10 code as the program writes it)."""
     return f"G{int(code)}"
+
+
+def _name_of(choices: dict, code: int) -> str:
+    return next(k for k, v in choices.items() if v == code)
 
 
 def _f(v: float) -> str:

@@ -14,7 +14,10 @@
   (mm/rev x rev/min) while the spindle turns (M3/M4), G97 as G95 and G971 as G94 without a G96
   before (Programming Manual Fundamentals, "Feedrate (G93, G94, G95, F)"); F keeps its value
   when the feed type changes and is read in the new unit;
-* SBLOF/SBLON/DISPLOF/DISPLON (single block, display) and SETMS change nothing that takes time;
+* SBLOF/SBLON/DISPLOF/DISPLON (single block, display), SETMS and DRFOF (deletes handwheel
+  offsets, which ncsim has none of) change nothing that takes time;
+* DIAMOF/DIAMON/DIAM90/DIAMCYCOF select diameter programming of the transverse axis (G group
+  29, :mod:`ncsim.nc.diameter`);
 * ADIS/ADISPOS are the G641 rounding distances, CTOL the contour tolerance of the compressor
   and of G642-G645 rounding, OTOL the orientation tolerance (recorded); a negative value deletes
   them (Job Planning "CTOL, OTOL, ATOL"); SOFT/BRISK/DRIVE change the acceleration mode (and
@@ -31,6 +34,7 @@ from __future__ import annotations
 
 import math
 
+from ncsim.nc.diameter import DIAMETER_COMMANDS
 from ncsim.nc.expr import format_value
 from ncsim.nc.frames import Frame, mirroring, rotation_in_plane, rotation_rpy, scaling, translation
 from ncsim.nc.modal import (ACCEL_COMMANDS, COMMANDS_NOT_SIMULATED, COMPRESSOR_CODES,
@@ -43,14 +47,16 @@ from ncsim.units import mm_min_to_mm_s
 _ZERO3 = (0.0, 0.0, 0.0)
 _FRAME_COMMANDS = ("TRANS", "ATRANS", "ROT", "AROT", "SCALE", "ASCALE", "MIRROR", "AMIRROR")
 _TRANSFORMATIONS = ("TRAORI", "TRANSMIT", "TRACYL", "TRAANG")
-_NO_TIME_COMMANDS = ("SBLOF", "SBLON", "DISPLOF", "DISPLON", "SETMS")
+# DRFOF deletes the handwheel (DRF) offsets (Fundamentals, "Frames": "Deselecting the frame
+# (G53, G153, SUPA, G500)", DRFOF): ncsim has none to delete
+_NO_TIME_COMMANDS = ("SBLOF", "SBLON", "DISPLOF", "DISPLON", "SETMS", "DRFOF")
 
 # Command words a block handles itself; any other name is a subprogram call.
 HANDLED_COMMANDS = frozenset(
     set(ACCEL_COMMANDS) | set(COMPRESSOR_COMMANDS) | set(DYNAMIC_COMMANDS) | set(_TRANSFORMATIONS)
     | set(_FRAME_COMMANDS)
     | set(COMMANDS_NOT_SIMULATED) | set(UNSUPPORTED_MOTION)
-    | set(_NO_TIME_COMMANDS)
+    | set(_NO_TIME_COMMANDS) | set(DIAMETER_COMMANDS)
     | {"FFWON", "FFWOF", "STOPRE", "TRAFOOF", "FNORM", "CFC", "MCALL", "SUPA", "RET", "GOTOS"})
 
 
@@ -272,6 +278,8 @@ class Settings:
                 raise ctx.unsupported(f"{name} ({UNSUPPORTED_MOTION[name]}) is not simulated", col)
             elif name == "SETMS":
                 self.state.master_spindle = 1
+            elif name in DIAMETER_COMMANDS:   # group 29: nc.diameter
+                st.diameter = DIAMETER_COMMANDS[name]
 
     # ---- CYCLE832 -----------------------------------------------------------------------------
 
