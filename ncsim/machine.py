@@ -22,6 +22,7 @@ import numpy as np
 from ncsim.config import Problems, between, is_number, open_share, read_toml, share, share0
 from ncsim.errors import ConfigWarning, MachineSpecError
 from ncsim.path import BRISK, COMPCAD, COMPOF, COMPRESSOR_NAMES, DRIVE, SOFT
+from ncsim.techgroups import GroupDynamics, dump_dynamics, group_limits, read_dynamics
 from ncsim.units import (deg_to_rad, m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_min_to_mm_s,
                          mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min, mm_s_to_mm_min, ms_to_s,
                          percent_to_share, rad_to_deg, s2_to_um_per_m_s2, s_to_ms, share_to_percent,
@@ -176,6 +177,23 @@ class MachineSpec:
     system_variables: tuple[tuple[str, float | str], ...] = ()
     #: ``[machine] type``: "milling" or "turning" (a lathe: G18 and DIAMON at reset, MACHINE_TYPES)
     kind: str = "milling"
+    #: ``[dynamics]``: per technology group (DYNNORM..DYNPREC) axis limits, ncsim.techgroups
+    dynamics: GroupDynamics | None = field(default=None, compare=False)
+
+    def defines_group(self, group: int) -> bool:
+        """Whether the file says how technology group ``group`` (G group 59) runs."""
+        return group == 0 or (self.dynamics is not None and self.dynamics.defines(group))
+
+    def group_limits(self) -> np.ndarray:
+        """(group, [velocity, accel, jerk], axis) in mm and s: ``ncsim.techgroups``."""
+        return group_limits(self.axes, self.dynamics)
+
+    def for_group(self, group: int) -> "MachineSpec":
+        """This machine with the axis limits of technology group ``group`` in ``[axes]``."""
+        if group == 0 or self.dynamics is None or not self.dynamics.given[group]:
+            return self
+        v, a, j = self.group_limits()[group]
+        return self.with_axes(max_velocity_mm_s=v, max_accel_mm_s2=a, max_jerk_mm_s3=j)
 
     def axis(self, name: str) -> AxisSpec:
         for a in self.axes:
@@ -359,7 +377,7 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
     :class:`~ncsim.errors.MachineSpecError`."""
     c = Problems(file, MachineSpecError)
     c.unknown(data, "", {"machine", "axes", "ncu", "work_offsets", "structure", "cycle832",
-                         "system_variables"})
+                         "system_variables", "dynamics"})
     data = _read_old_corner_key(data, c)
 
     mtab = c.table(data, "machine", required=True)
@@ -456,13 +474,14 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
             svalues[f] = v
 
     sysvars = _system_variables(c, c.table(data, "system_variables"))
+    dynamics = read_dynamics(c, c.table(data, "dynamics"), axes, AXIS_NAMES)
     c.raise_if_any()
     _unusual_values(c, {f"axes.{a}": atab[a] for a in AXIS_NAMES} | {"ncu": ntab})
     return MachineSpec(name=name, description=description, axes=tuple(axes),
                        ncu=NcuSpec(**ncu_values), source=file,
                        work_offsets_mm=tuple(offsets), structure=StructureSpec(**svalues),
                        warnings=tuple(c.warnings), cycle832=cycle832,
-                       system_variables=sysvars, kind=kind)
+                       system_variables=sysvars, kind=kind, dynamics=dynamics)
 
 
 _SYSVAR_KEY = re.compile(r"^\$[A-Z_][A-Z0-9_]*(\[[A-Z0-9_]+(,[A-Z0-9_]+)*\])?$")
@@ -650,6 +669,7 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
               f"reset_plane = \"G{n.reset_plane}\"  # MD20150 (group 6)",
               f"reset_diameter_mode = {_q(_name_of(DIAMETER_MODES, n.reset_diameter_mode))}  # MD20150 (group 29)",
               f"diameter_axis = {_q(AXIS_NAMES[n.diameter_axis])}  # MD20100 $MC_DIAMETER_AX_DEF"]
+    lines += dump_dynamics(spec.dynamics, AXIS_NAMES, _f)
     if spec.work_offsets_mm:
         lines += ["", "[work_offsets]"]
         for key, (x, y, z) in spec.work_offsets_mm:

@@ -38,8 +38,8 @@ from ncsim.nc import program as P
 from ncsim.nc.context import CallFrame
 from ncsim.nc.expr import Where, format_value
 from ncsim.nc.flow import Unit, is_proc, split_units
-from ncsim.nc.modal import (CYCLE832_DYNAMICS, CYCLE832_TYPE_NAMES, M_END, M_END_RESET,
-                            M_RETURN)
+from ncsim.nc.modal import (CYCLE832_DYNAMICS, CYCLE832_TYPE_NAMES, DYNAMIC_COMMANDS, M_END,
+                            M_END_RESET, M_RETURN)
 from ncsim.nc.parse import parse_text, read_program_text
 from ncsim.nc.settings import HANDLED_COMMANDS, Settings
 from ncsim.nc.variables import check_name
@@ -154,14 +154,14 @@ class Calls:
         st = self.state.st
         return ((st.motion, st.plane, st.incremental, st.units, st.cp_mode, st.stop_window,
                  st.accel_mode, st.ffw, st.radius_comp, st.settable_mm, st.prog_frame,
-                 st.diameter),
+                 st.diameter, st.dyn_group),
                 (self.state.feed_type, self.state.settable_code))
 
     def _restore(self, saved) -> None:
         state, st = self.state, self.state.st
         (st.motion, st.plane, st.incremental, st.units, st.cp_mode, st.stop_window,
          st.accel_mode, st.ffw, st.radius_comp, st.settable_mm, st.prog_frame,
-         st.diameter) = saved[0]
+         st.diameter, st.dyn_group) = saved[0]
         state.feed_type, state.settable_code = saved[1]
         st.set_frames()
 
@@ -343,7 +343,9 @@ class Calls:
         predefined names _OFF, _FINISH, _SEMIFIN, _ROUGH and the _ORI_ forms), its tens digit 1
         makes S_OTOL the orientation tolerance (OTOL, recorded); ``CYCLE832()`` deselects. What a
         machining type switches -- G642/G645, COMPCAD..., SOFT, FFWON -- is the machine
-        builder's CUST_832: the machine file's ``[cycle832]`` table (:meth:`Settings.cycle832`).
+        builder's CUST_832: the machine file's ``[cycle832]`` table (:meth:`Settings.cycle832`);
+        its technology group (DYNNORM, DYNFINISH, DYNSEMIFIN, DYNROUGH, DYNPREC by type) runs
+        with the machine file's ``[dynamics]`` (:meth:`Settings.technology_group`).
         Higher digits (old packed codes such as 102001, the Top Surface digit) are not decoded:
         the machining type is simulated and a warning says so. Tolerance 0 deselects (a
         secondary source, warned)."""
@@ -389,11 +391,8 @@ class Calls:
             state.st.otol_deg = math.nan
         ctx.record(CYCLE832_DYNAMICS[units], ())
         notes = state.cycle832_notes
-        if units != 0 and "dynamics" not in notes:
-            notes.add("dynamics")
-            ctx.warn("CYCLE832", f"CYCLE832 selects {CYCLE832_DYNAMICS[units]}: the dynamic "
-                     f"response of this technology group (MD20600 ff. per group) is not "
-                     f"simulated, the machine file's one set of dynamics is used", col)
+        self.settings.technology_group(ctx, DYNAMIC_COMMANDS.index(CYCLE832_DYNAMICS[units]),
+                                       col, "CYCLE832 selects ")
         if not spec.from_file and "defaults" not in notes:
             notes.add("defaults")
             ctx.warn("CYCLE832", "CYCLE832: the machine file has no [cycle832] table; the usual "

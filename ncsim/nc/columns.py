@@ -184,7 +184,7 @@ class ColumnPath:
             exact_stop=st.cp_mode == 60, stop_window=st.stop_window, cp_mode=st.cp_mode,
             adis_mm=np.where(rapid, st.adispos_mm, st.adis_mm), accel_mode=st.accel_mode,
             ffw=st.ffw, stop_before=stop, dwell_before_s=dwell,
-            compressor=compressor, ctol_mm=st.ctol_mm)
+            compressor=compressor, ctol_mm=st.ctol_mm, dyn_group=st.dyn_group)
         last = k - 1
         st.pending_stop = False
         st.pending_dwell_s = 0.0

@@ -52,8 +52,7 @@ APPROXIMATE_KINDS = {
     "cycle": "machining cycles without their source are not simulated (no motion)",
     "missing subprogram": "missing subprograms are skipped (no motion)",
     "MCALL": "modal calls of cycles without their source are not executed",
-    "CYCLE832": "parts of CYCLE832 are not simulated (the dynamic response of its technology "
-                "group, higher digits of an old code)",
+    "CYCLE832": "parts of CYCLE832 are not simulated (higher digits of an old code)",
     "G644": "G644 is simulated as G642",
     "CYCLE800": "CYCLE800 swivelling is not simulated",
     "rotary axis": "rotary axis motion is not simulated",
@@ -64,8 +63,8 @@ APPROXIMATE_KINDS = {
     "dwell": "a G4 S dwell without spindle speed is taken as 0 s",
     "spindle positioning": "spindle positioning (SPOS) times are not simulated",
     "system variable": "assignments to system variables are not simulated",
-    **{name: "dynamic response modes are not simulated" for name in (
-        "DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "DYNPREC")},
+    **{name: "technology groups the machine file does not define run with its [axes] dynamics"
+       for name in ("DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "DYNPREC")},
     **{name: f"{what} ({name}) is not simulated" for name, what in COMMANDS_NOT_SIMULATED.items()},
 }
 

@@ -534,7 +534,7 @@ class Moves:
             "dwell_before_s": st.pending_dwell_s,
             "compressor": 0 if kind != LINE else (-st.compressor if st.compress_break
                                                    else st.compressor),
-            "ctol_mm": st.ctol_mm})
+            "ctol_mm": st.ctol_mm, "dyn_group": st.dyn_group})
         st.pending_stop = False
         st.pending_dwell_s = 0.0
         st.compress_break = False

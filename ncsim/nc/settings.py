@@ -25,7 +25,9 @@
 * COMPON/COMPCURV/COMPCAD/COMPSURF/COMPOF select the compressor (:mod:`ncsim.plan.compressor`;
   COMPSURF is simulated as COMPCAD); G644 is simulated as G642 (warned);
 * :meth:`Settings.cycle832` is what CYCLE832 switches (the machine file's ``[cycle832]`` table);
-* DYN*, TRAORI and the like are recorded with a warning: they are not simulated.
+* DYNNORM..DYNPREC select the technology group whose axis dynamics apply (the machine file's
+  ``[dynamics]``; a group it does not define is warned); TRAORI and the like are recorded with
+  a warning: they are not simulated.
 
 A new command word (a name without ``=``) is handled in :meth:`Settings.commands` and added to
 :data:`HANDLED_COMMANDS`, or it would be taken for a subprogram call.
@@ -265,9 +267,7 @@ class Settings:
                 st.compressor = COMPRESSOR_CODES[name]
             elif name in DYNAMIC_COMMANDS:
                 ctx.record(name, ())
-                if name != "DYNNORM":
-                    ctx.warn(name, f"{name}: the dynamic response mode is recorded but not "
-                             f"simulated (the machine file's one set of dynamics is used)", col)
+                self.technology_group(ctx, DYNAMIC_COMMANDS.index(name), col)
             elif name in _TRANSFORMATIONS:
                 ctx.record(name, ())
                 ctx.warn("transformation", f"{name} kinematic transformation is not simulated "
@@ -280,6 +280,20 @@ class Settings:
                 self.state.master_spindle = 1
             elif name in DIAMETER_COMMANDS:   # group 29: nc.diameter
                 st.diameter = DIAMETER_COMMANDS[name]
+
+    def technology_group(self, ctx, group: int, col: int, what: str = "") -> None:
+        """Select technology group ``group`` (G group 59, DYNNORM..DYNPREC): its axis dynamics
+        apply from the next block on (``Path.dyn_group``, ``ncsim.techgroups``). A group the
+        machine file does not define runs with its ``[axes]`` values, warned (the result is
+        approximate)."""
+        self.st.dyn_group = group
+        machine = self.state.machine
+        name = DYNAMIC_COMMANDS[group]
+        if group == 0 or (machine is not None and machine.defines_group(group)):
+            return
+        ctx.warn(name, f"{what}{name}: the machine file defines no dynamics for this "
+                 f"technology group ([dynamics.{name}.X] ... or [dynamics] "
+                 f"same_for_all_groups = true): its [axes] values are used", col)
 
     # ---- CYCLE832 -----------------------------------------------------------------------------
 
