@@ -22,7 +22,6 @@ import numpy as np
 from ncsim.config import Problems, between, is_number, open_share, read_toml, share, share0
 from ncsim.errors import ConfigWarning, MachineSpecError
 from ncsim.path import BRISK, COMPCAD, COMPOF, COMPRESSOR_NAMES, DRIVE, SOFT
-from ncsim.techgroups import GroupDynamics, dump_dynamics, group_limits, read_dynamics
 from ncsim.units import (deg_to_rad, m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_min_to_mm_s,
                          mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min, mm_s_to_mm_min, ms_to_s,
                          percent_to_share, rad_to_deg, s2_to_um_per_m_s2, s_to_ms, share_to_percent,
@@ -37,11 +36,9 @@ G0_TO_G1_MODES = (0, 1, 2, 3)
 #: operator-panel overrides a machine file may hold (what a recording was made with), percent
 MAX_OVERRIDE_PERCENT = 200.0
 WORK_OFFSET_NAMES = ("G54", "G55", "G56", "G57")
-#: ``[machine] type`` -> the reset values it implies unless ``[ncu]`` gives them: the plane (G
-#: group 6) and diameter programming (G group 29) of MD20150 $MC_GCODE_RESET_VALUES. A lathe
-#: is set up with G18 (the Z-X turning plane) and DIAMON on its transverse axis X (MD20100
-#: $MC_DIAMETER_AX_DEF), a milling machine keeps the 840D's G17 and DIAMOF (Programming Manual
-#: Fundamentals, "Dimensions for turning and milling"; "Plane selection: G17 to G19")
+#: ``[machine] type`` -> its MD20150 reset values of G groups 6 and 29 unless ``[ncu]`` gives
+#: them: a lathe G18 and DIAMON on its transverse axis X (MD20100), a milling machine G17 and
+#: DIAMOF (Fundamentals, "Dimensions for turning and milling"; "Plane selection: G17 to G19")
 MACHINE_TYPES = {"milling": {"reset_plane": 17, "reset_diameter_mode": 0},
                  "turning": {"reset_plane": 18, "reset_diameter_mode": 1}}
 PLANES = {"G17": 17, "G18": 18, "G19": 19}
@@ -177,7 +174,7 @@ class MachineSpec:
     system_variables: tuple[tuple[str, float | str], ...] = ()
     #: ``[machine] type``: "milling" or "turning" (a lathe: G18 and DIAMON at reset, MACHINE_TYPES)
     kind: str = "milling"
-    #: ``[dynamics]``: per technology group (DYNNORM..DYNPREC) axis limits, ncsim.techgroups
+    #: ``[dynamics]``: per technology group (TECHNOLOGY_GROUPS) axis limits
     dynamics: GroupDynamics | None = field(default=None, compare=False)
 
     def defines_group(self, group: int) -> bool:
@@ -185,7 +182,7 @@ class MachineSpec:
         return group == 0 or (self.dynamics is not None and self.dynamics.defines(group))
 
     def group_limits(self) -> np.ndarray:
-        """(group, [velocity, accel, jerk], axis) in mm and s: ``ncsim.techgroups``."""
+        """(group, [velocity, accel, jerk], axis) in mm and s (``[dynamics]``, below)."""
         return group_limits(self.axes, self.dynamics)
 
     def for_group(self, group: int) -> "MachineSpec":
@@ -474,7 +471,7 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
             svalues[f] = v
 
     sysvars = _system_variables(c, c.table(data, "system_variables"))
-    dynamics = read_dynamics(c, c.table(data, "dynamics"), axes, AXIS_NAMES)
+    dynamics = _read_dynamics(c, c.table(data, "dynamics"), axes)
     c.raise_if_any()
     _unusual_values(c, {f"axes.{a}": atab[a] for a in AXIS_NAMES} | {"ncu": ntab})
     return MachineSpec(name=name, description=description, axes=tuple(axes),
@@ -669,7 +666,7 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
               f"reset_plane = \"G{n.reset_plane}\"  # MD20150 (group 6)",
               f"reset_diameter_mode = {_q(_name_of(DIAMETER_MODES, n.reset_diameter_mode))}  # MD20150 (group 29)",
               f"diameter_axis = {_q(AXIS_NAMES[n.diameter_axis])}  # MD20100 $MC_DIAMETER_AX_DEF"]
-    lines += dump_dynamics(spec.dynamics, AXIS_NAMES, _f)
+    lines += _dump_dynamics(spec.dynamics)
     if spec.work_offsets_mm:
         lines += ["", "[work_offsets]"]
         for key, (x, y, z) in spec.work_offsets_mm:
@@ -709,3 +706,88 @@ def _f(v: float) -> str:
 
 def _q(s: str) -> str:
     return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+# ---------------------------------------------------------------------------------------------
+# Technology-group dynamics (G group 59): the [dynamics] table
+# ---------------------------------------------------------------------------------------------
+# Job planning, "Dynamic response mode for path interpolation (DYNNORM ... DYNPREC)"; B2
+# "Acceleration": MD32300 $MA_MAX_AX_ACCEL[n] and MD32431 $MA_MAX_AX_JERK[n] are arrays indexed
+# by the group n (0 DYNNORM = [axes], 1 DYNPOS, 2 DYNROUGH, 3 DYNSEMIFIN, 4 DYNFINISH, 5
+# DYNPREC); the DYN... words and CYCLE832's machining type select it. ncsim also takes a velocity
+# per group (MD32000 is one value on the 840D: for a machine builder's per-group override).
+# [dynamics.<GROUP>.<axis>] keys default to the [axes] value; [dynamics] same_for_all_groups =
+# true declares one set for every group. A group given neither way runs with [axes], warned.
+TECHNOLOGY_GROUPS = ("DYNNORM", "DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "DYNPREC")
+ALL_GROUPS_KEY = "same_for_all_groups"
+_GROUP_KEYS = (("max_velocity_m_min", 0, between(1e-3, 1e6, "m/min"), m_min_to_mm_s),
+               ("max_accel_m_s2", 1, between(1e-3, 1e6, "m/s^2"), m_s2_to_mm_s2),
+               ("max_jerk_m_s3", 2, between(1e-3, 1e9, "m/s^3"), m_s3_to_mm_s3))
+
+
+@dataclass(frozen=True, slots=True)
+class GroupDynamics:
+    """``limits[g]``: (velocity mm/s, accel mm/s^2, jerk mm/s^3) x (X, Y, Z) of group g where
+    ``given[g]``; ``same_for_all``: the explicit one-set declaration."""
+
+    limits: np.ndarray            # (len(TECHNOLOGY_GROUPS), 3 quantities, 3 axes)
+    given: tuple[bool, ...]
+    same_for_all: bool = False
+
+    def defines(self, group: int) -> bool:
+        return group == 0 or self.same_for_all or self.given[group]
+
+
+def group_limits(axes, dynamics: GroupDynamics | None) -> np.ndarray:
+    """(group, quantity, axis): the given groups' values, every other group the ``[axes]``."""
+    one = [[getattr(a, f) for a in axes]
+           for f in ("max_velocity_mm_s", "max_accel_mm_s2", "max_jerk_mm_s3")]
+    table = np.repeat(np.array(one)[None], len(TECHNOLOGY_GROUPS), axis=0)
+    if dynamics is not None:
+        given = np.array(dynamics.given)
+        table[given] = dynamics.limits[given]
+    return table
+
+
+def _read_dynamics(c: Problems, table: dict, axes) -> GroupDynamics | None:
+    """The ``[dynamics]`` table over the ``[axes]`` values; None without one."""
+    if not table or len(axes) != len(AXIS_NAMES):
+        return None
+    c.unknown(table, "dynamics", {ALL_GROUPS_KEY, *TECHNOLOGY_GROUPS[1:]},
+              "unknown key (the groups are DYNPOS, DYNROUGH, DYNSEMIFIN, DYNFINISH, DYNPREC; "
+              "DYNNORM is [axes])")
+    same = bool(c.boolean(table, "dynamics", ALL_GROUPS_KEY))
+    limits, given = group_limits(axes, None), [False] * len(TECHNOLOGY_GROUPS)
+    for g, group in enumerate(TECHNOLOGY_GROUPS[1:], start=1):
+        gtab = c.table(table, group, prefix="dynamics")
+        if group not in table:
+            continue
+        if same:
+            c.add(f"dynamics.{group}", f"{ALL_GROUPS_KEY} = true says every group runs with the "
+                  f"[axes] values: give either it or per-group values")
+        c.unknown(gtab, f"dynamics.{group}", set(AXIS_NAMES))
+        given[g] = True
+        for i, axis in enumerate(AXIS_NAMES):
+            prefix = f"dynamics.{group}.{axis}"
+            atab = c.table(gtab, axis, prefix=f"dynamics.{group}")
+            c.unknown(atab, prefix, {k for k, *_ in _GROUP_KEYS})
+            for key, q, check, convert in _GROUP_KEYS:
+                v = c.number(atab, prefix, key, check=check, convert=convert)
+                if v is not None:
+                    limits[g, q, i] = v
+    limits.setflags(write=False)
+    return GroupDynamics(limits, tuple(given), same)
+
+
+def _dump_dynamics(dyn: GroupDynamics | None) -> list[str]:
+    if dyn is None:
+        return []
+    lines = ["", "[dynamics]", f"{ALL_GROUPS_KEY} = true"] if dyn.same_for_all else []
+    for g in (g for g in range(1, len(TECHNOLOGY_GROUPS)) if dyn.given[g]):
+        for i, axis in enumerate(AXIS_NAMES):
+            v, a, j = dyn.limits[g, :, i]
+            lines += ["", f"[dynamics.{TECHNOLOGY_GROUPS[g]}.{axis}]",
+                      f"max_velocity_m_min = {_f(mm_s_to_m_min(v))}",
+                      f"max_accel_m_s2 = {_f(mm_s2_to_m_s2(a))}  # MD32300 $MA_MAX_AX_ACCEL[{g}]",
+                      f"max_jerk_m_s3 = {_f(mm_s3_to_m_s3(j))}  # MD32431 $MA_MAX_AX_JERK[{g}]"]
+    return lines

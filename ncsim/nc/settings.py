@@ -283,7 +283,7 @@ class Settings:
 
     def technology_group(self, ctx, group: int, col: int, what: str = "") -> None:
         """Select technology group ``group`` (G group 59, DYNNORM..DYNPREC): its axis dynamics
-        apply from the next block on (``Path.dyn_group``, ``ncsim.techgroups``). A group the
+        apply from the next block on (``Path.dyn_group``, ``machine.TECHNOLOGY_GROUPS``). A group the
         machine file does not define runs with its ``[axes]`` values, warned (the result is
         approximate)."""
         self.st.dyn_group = group

@@ -154,7 +154,7 @@ class Prepared:
 
 def _group_axis_rows(machine: MachineSpec, groups: np.ndarray):
     """(velocity, accel, jerk), each (rows, 3): the axis limits of each row's technology group
-    (``Path.dyn_group``, ``ncsim.techgroups``), for the vectorised kinematics."""
+    (``Path.dyn_group``, ``machine.TECHNOLOGY_GROUPS``), for the vectorised kinematics."""
     table = machine.group_limits()[np.asarray(groups, dtype=np.intp)]
     return table[:, 0], table[:, 1], table[:, 2]
 

@@ -8,7 +8,7 @@ planner (:mod:`ncsim.plan`) turns these into the feed law; this module never pla
 
 Everything is vectorised over blocks and junctions. The axis limits V_mi, A_mi, J_mi are those
 of each block's technology group (``Path.dyn_group``, G group 59: the machine file's
-``[dynamics]``, ``ncsim.techgroups``): the blocks are taken in runs of one group. On arcs, every extremum over the arc's
+``[dynamics]``, ``machine.TECHNOLOGY_GROUPS``): the blocks are taken in runs of one group. On arcs, every extremum over the arc's
 angle range (least V_t, A_n, J_t and tangential acceleration, alpha_c, largest J_t) is a closed
 form evaluated at a few known angles -- the range ends, the axis directions, the crossings of
 two axes' ratios (45 deg, ``tan alpha = J_mx / J_my``) -- by the compiled per-arc loops of
