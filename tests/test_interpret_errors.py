@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from ncsim.errors import NcError, NcSemanticError, NcSyntaxError, NcUnsupportedError
+from ncsim.errors import NcError, NcSemanticError, NcSyntaxError, NcUnsupportedError, shown
 from ncsim.nc.interpret import interpret_text
 
 CASES = [
@@ -148,4 +148,4 @@ def test_a_word_too_long_for_a_file_name_is_an_unknown_word(tmp_path):
     with pytest.raises(NcSemanticError) as info:
         interpret_text(f"G1 X1 F100\n{word}\nM30\n", "long.mpf", search_dir=tmp_path)
     assert (info.value.line, info.value.column) == (2, 1)
-    assert info.value.message.startswith(f"subprogram {word} not found")
+    assert info.value.message.startswith(f"subprogram {shown(word)} not found")
