@@ -106,7 +106,7 @@ def program_options(func):
     the block budget (``nc_options`` pops them for ``pipeline.simulate``)."""
     func = click.option("--block-budget", type=click.IntRange(min=1), default=None, metavar="N",
                         help="Stop as an endless loop after N executed blocks [default: the "
-                             "program's lines + 2,000,000].")(func)
+                             "program's lines + 2,000,000, FOR loop passes not counted].")(func)
     func = click.option("--definitions", type=click.Path(dir_okay=False, exists=True), multiple=True,
                         metavar="FILE", help="GUD definitions file (MGUD.DEF, UGUD.DEF: DEF "
                         "NCK|CHAN type name), read before the program; repeatable.")(func)

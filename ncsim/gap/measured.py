@@ -19,7 +19,9 @@ no time column (optionally times a row-index column, so that missing rows show a
 
 Known recorders' layouts are detected from the header (:data:`PRESETS`, e.g. the KIT wbk
 SINUMERIK Edge datasets). Samples may be missing (non-uniform but increasing time is fine); a
-repeated or decreasing time, an empty cell, a NaN or a missing column is an error.
+repeated or decreasing time, an empty cell, a NaN or a missing column is an error, and so are
+values no recording has: a sample period (the median time step) under 1 us, a value beyond
++-1e9 in mm and s (the 840D's position range).
 """
 from __future__ import annotations
 
