@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from importlib import resources
 from pathlib import Path as FsPath
 from typing import Any, Callable
@@ -268,10 +268,22 @@ def overload_factor(v: float) -> str | None:
 # is physically possible, with a wide margin around every real machine; inside them no
 # arithmetic of the planner overflows or divides by (almost) zero. What is possible but
 # unusual (often a value in the wrong unit) is a warning: see _USUAL below.
+#: the least acceleration and jerk of an axis (the lower ends of their ranges)
+MIN_ACCEL_M_S2 = 1e-3
+MIN_JERK_M_S3 = 1e-3
+#: the least acceleration and jerk the planner may derive from several keys (a share of an
+#: axis value, :func:`_derived_limits`): a thousandth of an axis's least. Below it no machine
+#: moves (at 1e-6 m/s^2 a feed of 1 m/min takes 4.6 hours to reach); far below it the ramp
+#: formulas of eq. 16 underflow (a jerk of 1e-300 m/s^3 times a feed step is 0)
+MIN_DERIVED_ACCEL_M_S2 = 1e-6
+MIN_DERIVED_JERK_M_S3 = 1e-6
+
 _AXIS_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
     ("max_velocity_m_min", "max_velocity_mm_s", True, between(1e-3, 1e6, "m/min"), m_min_to_mm_s),
-    ("max_accel_m_s2", "max_accel_mm_s2", True, between(1e-3, 1e6, "m/s^2"), m_s2_to_mm_s2),
-    ("max_jerk_m_s3", "max_jerk_mm_s3", True, between(1e-3, 1e9, "m/s^3"), m_s3_to_mm_s3),
+    ("max_accel_m_s2", "max_accel_mm_s2", True, between(MIN_ACCEL_M_S2, 1e6, "m/s^2"),
+     m_s2_to_mm_s2),
+    ("max_jerk_m_s3", "max_jerk_mm_s3", True, between(MIN_JERK_M_S3, 1e9, "m/s^3"),
+     m_s3_to_mm_s3),
     ("position_gain_1_s", "position_gain_1_s", False, between(1e-2, 1e4, "1/s"), float),
     ("max_accel_ovl_factor", "max_accel_ovl_factor", False, overload_factor, float),
     ("compress_pos_tol_mm", "compress_pos_tol_mm", False, between(1e-6, 100.0, "mm"), float),
@@ -472,6 +484,8 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
 
     sysvars = _system_variables(c, c.table(data, "system_variables"))
     dynamics = _read_dynamics(c, c.table(data, "dynamics"), axes)
+    if len(axes) == len(AXIS_NAMES) and not c:
+        _derived_limits(c, axes, ncu_values)
     c.raise_if_any()
     _unusual_values(c, {f"axes.{a}": atab[a] for a in AXIS_NAMES} | {"ncu": ntab})
     return MachineSpec(name=name, description=description, axes=tuple(axes),
@@ -479,6 +493,46 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
                        work_offsets_mm=tuple(offsets), structure=StructureSpec(**svalues),
                        warnings=tuple(c.warnings), cycle832=cycle832,
                        system_variables=sysvars, kind=kind, dynamics=dynamics)
+
+
+_NCU_DEFAULTS = {f.name: f.default for f in fields(NcuSpec)}
+
+
+def _derived_limits(c: Problems, axes: list[AxisSpec], ncu: dict[str, Any]) -> None:
+    """The jerk and accelerations the planner derives from several keys, each at least
+    ``MIN_DERIVED_JERK_M_S3`` / ``MIN_DERIVED_ACCEL_M_S2``: each key may lie in its range while
+    their product leaves the ramps nothing (a tangential jerk share of 1e-300, an acceleration
+    of 0 that no ramp reaches a feed with). Noted on the key that makes the value small."""
+    j_tcurv = mm_s3_to_m_s3(ncu["curvilinear_jerk_mm_s3"] * ncu["tangential_jerk_share"])
+    if j_tcurv < MIN_DERIVED_JERK_M_S3:
+        c.add("ncu.tangential_jerk_share",
+              f"gives J_tcurv = curvilinear_jerk_m_s3 x tangential_jerk_share = {j_tcurv:.3g} "
+              f"m/s^3 (paper eq. 10), below {MIN_DERIVED_JERK_M_S3:g} m/s^3: the NCU could not "
+              f"ramp the path feed")
+    a_min = mm_s2_to_m_s2(min(a.max_accel_mm_s2 for a in axes))
+    normal = _ncu_value(ncu, "normal_accel_share")
+    tangential = (1.0 - normal[0]) * a_min        # left on an arc at its set point (eq. 1)
+    if tangential < MIN_DERIVED_ACCEL_M_S2:
+        c.add("ncu.normal_accel_share",
+              f"{normal[1]} leaves (1 - share) x {a_min:g} m/s^2 = {tangential:.3g} m/s^2 of the "
+              f"weakest axis's acceleration to the feed ramps on an arc at its set point "
+              f"(eq. 1), below {MIN_DERIVED_ACCEL_M_S2:g} m/s^2")
+        return
+    reduction = ncu.get("drive_accel_reduction_ratio", _NCU_DEFAULTS["drive_accel_reduction_ratio"])
+    drive = (1.0 - reduction) * tangential
+    if drive < MIN_DERIVED_ACCEL_M_S2:
+        c.add("ncu.drive_accel_reduction_ratio",
+              f"DRIVE keeps (1 - {reduction:g}) of the acceleration at the maximum velocity "
+              f"(MD35230, the knee-shaped characteristic of 840D B2): {drive:.3g} m/s^2 of the "
+              f"weakest axis's on an arc at its set point, below {MIN_DERIVED_ACCEL_M_S2:g} "
+              f"m/s^2: no ramp would reach that velocity")
+
+
+def _ncu_value(ncu: dict[str, Any], key: str) -> tuple[float, str]:
+    """``(value, how to name it)`` of an [ncu] key, its default when the file has none."""
+    if key in ncu:
+        return ncu[key], f"{ncu[key]:g}"
+    return _NCU_DEFAULTS[key], f"the default {_NCU_DEFAULTS[key]:g}"
 
 
 _SYSVAR_KEY = re.compile(r"^\$[A-Z_][A-Z0-9_]*(\[[A-Z0-9_]+(,[A-Z0-9_]+)*\])?$")

@@ -84,7 +84,7 @@ def test_missing_subprogram_is_an_error_naming_the_folders_or_a_warning(tmp_path
 
 def test_a_word_longer_than_a_file_name_is_a_missing_subprogram(tmp_path):
     (tmp_path / "main.mpf").write_text("G1 F100\n" + "B" * 300 + "\n")
-    with pytest.raises(NcSemanticError, match="subprogram B+ not found"):
+    with pytest.raises(NcSemanticError, match=r"subprogram B+\.\.\.B+ \(300 characters\) not found"):
         interpret_file(tmp_path / "main.mpf")
 
 

@@ -23,7 +23,8 @@ from ncsim.nc import program as P
 from ncsim.nc.context import WORD_VALUE_LIMIT
 from ncsim.nc.diameter import diameter_applies
 from ncsim.nc.frames import arc_normal
-from ncsim.nc.moves import MIN_LINE_MM, arc_columns, circle_error_mm, circle_tolerance_mm
+from ncsim.nc.moves import (MIN_LINE_MM, MIN_RADIUS_MM, arc_columns, circle_error_mm,
+                             circle_tolerance_mm)
 from ncsim.path import ARC
 from ncsim.units import mm_min_to_mm_s
 
@@ -146,7 +147,7 @@ class ColumnPath:
         normals = sign[:, None] * n_ccw[None, :]
         geo = arc_columns(mcs_start[ai], mcs_end[ai], st.frame.apply_rows(center_wcs), normals, 0.0)
         r_start = geo["radius_mm"]
-        if not (r_start > 0.0).all():
+        if not (r_start > MIN_RADIUS_MM).all():
             return False
         state = self.state
         if (circle_error_mm(r_start, geo["radius_end_mm"])

@@ -44,10 +44,13 @@ block to it. ``interpret_text(..., fast=False)`` parses every line with Lark and
 fast path (``tests/test_fastpath.py`` and ``tests/test_fastops.py`` compare the two).
 
 Endless loops: the blocks executed are counted against a budget (``--block-budget``; by
-default the lines of the program files plus 2,000,000); the error names the jump back taken
-most often. A loop that returns to the same state at its jump (R parameters, variables,
-position, modal state: the interpreter is deterministic) is stopped there after 1024 passes
-(cycles of up to 64 passes are recognised).
+default the lines of the program files plus 2,000,000, the passes of FOR loops that advance
+their counter given back: a FOR loop is bounded); the error names the jump back taken most
+often. A loop whose passes decide nothing (between two takings of its jump back, in one call,
+no condition on the program's state is evaluated) is stopped at its second pass, however it
+moves; one that returns to the same state at its jump (R parameters, variables, position,
+modal state: the interpreter is deterministic) is stopped there after 1024 passes (cycles of
+up to 64 passes are recognised). See ``context.InterpreterState.count_jump``.
 
 The parts, each a small class holding the shared :class:`~ncsim.nc.context.InterpreterState`:
 

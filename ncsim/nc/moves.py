@@ -25,7 +25,9 @@ data", "Path action"):
 
 A motion block whose end equals its start makes no segment (a full circle does); so does a
 line shorter than ``MIN_LINE_MM`` (1e-9 mm, far below the 840D's position resolution MD10200
-$MN_INT_INCR_PER_MM), which only rounding makes, e.g. ``AROT`` then ``X=IC(0)``. A segment
+$MN_INT_INCR_PER_MM), which only rounding makes, e.g. ``AROT`` then ``X=IC(0)``. A circle
+whose centre is closer to its start than ``MIN_RADIUS_MM`` (the same 1e-9 mm) has its centre
+on the start point, with or without a frame whose rotation leaves a rounding radius. A segment
 carries the compressor in force when it is a line, negated when another instruction came since
 the last segment (``ModalState.compress_break``, :func:`ncsim.nc.settings.compressible`), and
 the programmed contour tolerance CTOL. A segment
@@ -54,6 +56,7 @@ from ncsim.path import ARC, LINE
 
 FULL_CIRCLE_TOL_MM = 1e-9    # an arc whose end is this close to its start is a full circle
 MIN_LINE_MM = 1e-9           # a shorter line is rounding (a frame applied to an unchanged point)
+MIN_RADIUS_MM = 1e-9         # a smaller radius is rounding (a frame applied to I J K = 0)
 TWO_PI = 2.0 * math.pi
 _NAN3 = (math.nan, math.nan, math.nan)
 _ZERO3 = (0.0, 0.0, 0.0)
@@ -502,7 +505,7 @@ class Moves:
                           np.array([normal], dtype=np.float64), turns)
         r_start, r_end = float(geo["radius_mm"][0]), float(geo["radius_end_mm"][0])
         col = _motion_col(ctx)
-        if not r_start > 0.0:
+        if not r_start > MIN_RADIUS_MM:
             raise ctx.error("circle centre coincides with the start point", col)
         err = float(circle_error_mm(r_start, r_end))
         tol = float(circle_tolerance_mm(r_start, state.circle_const_mm, state.circle_factor))

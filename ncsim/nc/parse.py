@@ -28,8 +28,9 @@ from lark import Lark, Token, Transformer
 from lark.exceptions import (LarkError, UnexpectedCharacters, UnexpectedEOF, UnexpectedInput,
                              UnexpectedToken)
 
+from ncsim.config import read_bytes
 from ncsim.nc import program as P
-from ncsim.errors import NcError, NcSyntaxError
+from ncsim.errors import NcError, NcSyntaxError, shown
 
 # Words whose name is an 840D address (``X=..`` is a word, not a variable assignment).
 ADDRESSES = frozenset({
@@ -401,7 +402,7 @@ def _describe(token: Token) -> str:
     if token.type == "$END":
         return "end of block"
     kind = _TOKEN_NAMES.get(token.type)
-    return f"{kind} '{token}'" if kind else f"'{token}'"
+    return f"{kind} '{shown(str(token))}'" if kind else f"'{shown(str(token))}'"
 
 
 def _syntax_error(exc: UnexpectedInput, text: str, file: str, line: int) -> NcSyntaxError:
@@ -460,12 +461,10 @@ def parse_text(text: str, file: str = "<string>", *, fast: bool = True,
 
 
 def read_program_text(path: str | FsPath) -> str:
-    """The text of a program file: UTF-8, or Latin-1 (840D files often are) if not UTF-8."""
-    p = FsPath(path)
-    try:
-        data = p.read_bytes()
-    except OSError as exc:
-        raise NcError(f"cannot read program: {exc.strerror}", str(path), 0, 0) from None
+    """The text of a program file: UTF-8, or Latin-1 (840D files often are) if not UTF-8. A
+    path that is no regular file (a FIFO, a device) is refused before reading
+    (``config.read_bytes``)."""
+    data = read_bytes(path, "program", error=NcError)
     if data.startswith(codecs.BOM_UTF8):
         data = data[len(codecs.BOM_UTF8):]
     try:
