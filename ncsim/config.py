@@ -45,6 +45,7 @@ import io
 import math
 import os
 import re
+import stat
 import tomllib
 import warnings
 from dataclasses import dataclass, field
@@ -63,16 +64,60 @@ ErrorClass = Callable[..., Exception]   # called as cls(message, file=..., key=.
 # Reading
 # ---------------------------------------------------------------------------------------------
 
-def read_text(source: str | FsPath | Traversable, what: str, *, name: str | None = None,
-              error: ErrorClass = ConfigError) -> str:
-    """The UTF-8 text of ``source`` (a path, or a resource of an installed package; a byte-order
-    mark is dropped). ``what`` names the file in messages (``"machine file"``), ``name`` is the
-    ``FILE`` they start with (default: ``source`` itself)."""
-    file = str(source) if name is None else name
+#: what a path that is not a regular file is, for the message refusing it
+_FILE_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a named pipe (FIFO)"),
+               (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+               (stat.S_ISSOCK, "a socket"))
+#: the largest TOML file read (machine, setup and published-value files are kilobytes)
+MAX_TOML_BYTES = 16 * 1024 * 1024
+
+
+def not_regular(mode: int) -> str | None:
+    """What a file of ``st_mode`` is when it is not a regular file (None for a regular file)."""
+    if stat.S_ISREG(mode):
+        return None
+    return next((kind for test, kind in _FILE_KINDS if test(mode)), "not a regular file")
+
+
+def read_bytes(path: str | os.PathLike, what: str, *, name: str | None = None,
+               error: ErrorClass = ConfigError, max_bytes: int | None = None) -> bytes:
+    """The bytes of a user's file ``path``, refused before reading unless it is a regular
+    file: a named pipe would block the reader until something writes to it (forever in a
+    batch), a device such as ``/dev/zero`` never ends. ``what`` names the file in messages
+    (``"program"``), ``name`` is the ``FILE`` they start with; a file over ``max_bytes`` is
+    refused too. The file is opened without blocking and checked again once open."""
+    file = str(path) if name is None else name
     try:
-        data = FsPath(source).read_bytes() if isinstance(source, (str, os.PathLike)) else source.read_bytes()
+        kind = not_regular(os.stat(path).st_mode)
+        if kind is None:
+            fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+            with open(fd, "rb") as fh:
+                info = os.fstat(fh.fileno())
+                kind = not_regular(info.st_mode)
+                if kind is None and (max_bytes is None or info.st_size <= max_bytes):
+                    return fh.read()
     except OSError as exc:
         raise error(f"cannot read {what}: {exc.strerror or exc}", file=file) from None
+    if kind is not None:
+        raise error(f"cannot read {what}: {kind}, not a regular file", file=file)
+    raise error(f"cannot read {what}: {info.st_size:,} bytes, more than a {what} can be "
+                f"(at most {max_bytes:,})", file=file)
+
+
+def read_text(source: str | FsPath | Traversable, what: str, *, name: str | None = None,
+              error: ErrorClass = ConfigError, max_bytes: int | None = None) -> str:
+    """The UTF-8 text of ``source`` (a path, read by :func:`read_bytes`, or a resource of an
+    installed package; a byte-order mark is dropped). ``what`` names the file in messages
+    (``"machine file"``), ``name`` is the ``FILE`` they start with (default: ``source``
+    itself)."""
+    file = str(source) if name is None else name
+    if isinstance(source, (str, os.PathLike)):
+        data = read_bytes(source, what, name=file, error=error, max_bytes=max_bytes)
+    else:
+        try:
+            data = source.read_bytes()
+        except OSError as exc:
+            raise error(f"cannot read {what}: {exc.strerror or exc}", file=file) from None
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
@@ -83,17 +128,23 @@ def read_text(source: str | FsPath | Traversable, what: str, *, name: str | None
 
 
 def parse_toml(text: str, file: str, *, error: ErrorClass = ConfigError) -> dict[str, Any]:
+    """The parsed ``text``; a syntax error, or arrays and tables nested deeper than Python's
+    recursive parser (``tomllib``) goes, is ``FILE: not valid TOML: ...``."""
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise error(f"not valid TOML: {exc}", file=file) from None
+    except RecursionError:
+        raise error("not valid TOML: arrays or inline tables nested too deeply (Python's TOML "
+                    "reader goes to a few hundred levels)", file=file) from None
 
 
 def read_toml(source: str | FsPath | Traversable, what: str, *, name: str | None = None,
               error: ErrorClass = ConfigError) -> dict[str, Any]:
-    """The parsed TOML of ``source`` (see :func:`read_text`)."""
+    """The parsed TOML of ``source`` (see :func:`read_text`), at most ``MAX_TOML_BYTES``."""
     file = str(source) if name is None else name
-    return parse_toml(read_text(source, what, name=file, error=error), file, error=error)
+    return parse_toml(read_text(source, what, name=file, error=error, max_bytes=MAX_TOML_BYTES),
+                      file, error=error)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -108,29 +159,44 @@ def non_negative(v: float) -> str | None:
     return None if v >= 0 and math.isfinite(v) else "must be zero or positive"
 
 
-def share(v: float) -> str | None:
-    return None if 0.0 < v <= 1.0 else "must be in (0, 1]"
+@dataclass(frozen=True, slots=True)
+class Range:
+    """A check for a value in ``[lo, hi]`` (an end excluded when ``lo_open`` / ``hi_open``), in
+    the file's ``unit``: the physically possible range of a key, wide enough for any real
+    machine, narrow enough that no arithmetic on it overflows or divides by (almost) zero.
+    Called with a value, it returns the problem or None; its ends are there for tests that draw
+    values across the whole accepted range."""
+
+    lo: float
+    hi: float
+    unit: str = ""
+    lo_open: bool = False
+    hi_open: bool = False
+
+    def __call__(self, v: float) -> str | None:
+        above = v > self.lo if self.lo_open else v >= self.lo
+        below = v < self.hi if self.hi_open else v <= self.hi
+        if above and below:
+            return None
+        if self.unit:
+            return f"must be between {self.lo:g} and {self.hi:g} {self.unit}"
+        left, right = "(" if self.lo_open else "[", ")" if self.hi_open else "]"
+        exclusive = ", exclusive" if self.lo_open and self.hi_open else ""
+        return f"must be in {left}{self.lo:g}, {self.hi:g}{right}{exclusive}"
 
 
-def share0(v: float) -> str | None:
-    return None if 0.0 <= v <= 1.0 else "must be in [0, 1]"
-
-
-def open_share(v: float) -> str | None:
-    return None if 0.0 < v < 1.0 else "must be in (0, 1), exclusive"
+share = Range(0.0, 1.0, lo_open=True)               # (0, 1]
+share0 = Range(0.0, 1.0)                            # [0, 1]
+open_share = Range(0.0, 1.0, lo_open=True, hi_open=True)   # (0, 1)
 
 
 def finite(v: float) -> str | None:
     return None if math.isfinite(v) else "must be a finite number"
 
 
-def between(lo: float, hi: float, unit: str) -> Callable[[float], str | None]:
-    """A check for ``lo <= v <= hi`` (in the file's ``unit``): the physically possible range
-    of a key, wide enough for any real machine, narrow enough that no arithmetic on it
-    overflows or divides by (almost) zero."""
-    def check(v: float) -> str | None:
-        return None if lo <= v <= hi else f"must be between {lo:g} and {hi:g} {unit}".rstrip()
-    return check
+def between(lo: float, hi: float, unit: str) -> Range:
+    """A check for ``lo <= v <= hi`` in the file's ``unit`` (:class:`Range`)."""
+    return Range(lo, hi, unit)
 
 
 #: |coordinate| of a work offset: the 840D's input range for positions (+-999 999 999.9999)

@@ -9,20 +9,25 @@ caller: a summary needs only the planned motion, which keeps million-block runs 
 Batch runs simulate each program in its own task (:func:`simulate_one`); a task never raises
 for a bad program: the error's one-line rendering is part of its result, so one broken file
 does not stop a CI batch. Results come back in completion order and are reported in input
-order.
+order. Local worker processes end with the batch, also when it is interrupted or killed
+(:func:`_run_processes`). Running out of memory in a stage is one
+:class:`~ncsim.errors.OutOfMemory` naming the program and the stage.
 """
 from __future__ import annotations
 
 import glob
 import os
 import re
+import signal
+import threading
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field, replace
+from functools import partial
 from pathlib import Path as FsPath
 from typing import Callable, Iterable
 
-from ncsim.errors import ConfigWarning, NcsimError, NcWarning, UsageError
+from ncsim.errors import ConfigWarning, NcsimError, NcWarning, OutOfMemory, UsageError
 from ncsim.machine import MachineSpec, load_machine
 from ncsim.motion import FULL_MODEL, ModelOptions, Motion
 from ncsim.nc.interpret import InterpretResult, interpret_file, interpret_text
@@ -89,6 +94,16 @@ def _libc():
 _LIBC = False
 
 
+@contextmanager
+def out_of_memory(program: str | FsPath, doing: str):
+    """A MemoryError inside becomes :class:`~ncsim.errors.OutOfMemory` naming ``program`` and
+    what was being done (the arrays that failed are freed by then: the message costs little)."""
+    try:
+        yield
+    except MemoryError as exc:
+        raise OutOfMemory.of(str(program), doing, exc) from None
+
+
 def resolve_machine(machine: MachineSpec | str | FsPath) -> MachineSpec:
     return machine if isinstance(machine, MachineSpec) else load_machine(machine)
 
@@ -117,16 +132,18 @@ def simulate(program: str | FsPath, machine: MachineSpec | str | FsPath,
         progress("interpret")
     t0 = time.perf_counter()
     nc_options = nc_options or {}
-    if text is None:
-        result = interpret_file(program, spec, setup_offsets=setup_offsets, **nc_options)
-    else:
-        result = interpret_text(text, str(program), spec, setup_offsets=setup_offsets,
-                                search_dir=search_dir, **nc_options)
+    with out_of_memory(program, "interpreting it"):
+        if text is None:
+            result = interpret_file(program, spec, setup_offsets=setup_offsets, **nc_options)
+        else:
+            result = interpret_text(text, str(program), spec, setup_offsets=setup_offsets,
+                                    search_dir=search_dir, **nc_options)
     t1 = time.perf_counter()
     release_freed_memory()
     if progress is not None:
         progress("plan")
-    sim = simulate_path(result.path, spec, options, program=str(program))
+    with out_of_memory(program, "planning its motion"):
+        sim = simulate_path(result.path, spec, options, program=str(program))
     stages = {"interpret_s": t1 - t0, **sim.stage_time_s}
     return Simulation(program=str(program), machine=spec, options=options, interpreted=result,
                       limits=sim.limits, motion=sim.motion, stage_time_s=stages)
@@ -259,6 +276,10 @@ def simulate_one(program: str, machine: MachineSpec, options: ModelOptions = FUL
     except OSError as exc:
         return BatchResult(program=program, ok=False, error=f"{program}: {exc.strerror or exc}",
                            elapsed_s=time.perf_counter() - t0, worker=worker)
+    except MemoryError as exc:      # in the summary (simulate names its stage itself)
+        return BatchResult(program=program, ok=False,
+                           error=OutOfMemory.of(program, "summarising it", exc).render(),
+                           elapsed_s=time.perf_counter() - t0, worker=worker)
 
 
 def run_batch(programs: list[str], machine: MachineSpec, options: ModelOptions = FULL_MODEL, *,
@@ -281,11 +302,44 @@ def run_batch(programs: list[str], machine: MachineSpec, options: ModelOptions =
         for prog in programs:
             done(simulate_one(prog, machine, options))
     else:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            futures = [pool.submit(simulate_one, prog, machine, options) for prog in programs]
-            for fut in as_completed(futures):
-                done(fut.result())
+        _run_processes(programs, machine, options, min(jobs, len(programs)), done)
     return [results[p] for p in programs]
+
+
+def _run_processes(programs, machine, options, jobs: int, done) -> None:
+    """``jobs`` local worker processes that end with the batch: when it is done, when it is
+    interrupted (Ctrl-C or any error here: the pool is terminated) and when it is killed
+    (each worker asks to end with its parent: :func:`_worker_start`)."""
+    import multiprocessing
+
+    task = partial(simulate_one, machine=machine, options=options)
+    with multiprocessing.get_context().Pool(jobs, initializer=_worker_start,
+                                            initargs=(os.getpid(),)) as pool:
+        for result in pool.imap_unordered(task, programs):
+            done(result)
+
+
+#: prctl(2) option: the signal a process gets when its parent ends (Linux)
+_PR_SET_PDEATHSIG = 1
+
+
+def _worker_start(parent_pid: int) -> None:
+    """A batch worker's first step: Ctrl-C is the batch's to handle (it terminates the pool),
+    and the worker ends with the batch even when the batch is killed (``kill -9``, a CI
+    timeout): Linux's ``PR_SET_PDEATHSIG``, elsewhere a thread that watches the parent."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    libc = _libc()
+    prctl = getattr(libc, "prctl", None) if libc is not None else None
+    if prctl is None or prctl(_PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0) != 0:
+        threading.Thread(target=_end_with_parent, args=(parent_pid,), daemon=True).start()
+    if os.getppid() != parent_pid:       # the parent ended before the request
+        os._exit(1)
+
+
+def _end_with_parent(parent_pid: int, every_s: float = 0.5) -> None:
+    while os.getppid() == parent_pid:
+        time.sleep(every_s)
+    os._exit(1)
 
 
 def _run_dask(programs, machine, options, scheduler: str, done) -> None:

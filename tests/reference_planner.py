@@ -1,9 +1,11 @@
 """A slow, plain reference implementation of ncsim's feed-law model, used only as a test oracle.
 
-It follows the rules written in ncsim/plan/lookahead.py's docstrings, but computes everything with
-scalar Python loops and bisection (no numpy vectorisation, no numba, no closed-form inverses):
-ramp reach by bisection on the ramp distance, eq. 16 peaks by bisection, stopping distances
-by integrating the braking profile, junction times by bisection on the section's s(t). The
+It follows the rules written in ncsim/plan/lookahead.py's and ncsim/plan/_sections.py's
+docstrings, but computes everything with scalar Python loops and bisection (no numpy
+vectorisation, no numba, no closed-form inverses, no runs): ramp reach by bisection on the ramp
+distance, eq. 16 peaks by bisection, the limits of a ramp by growing the set of blocks it
+covers until it is stable, stopping distances by integrating the braking profile, junction
+times by bisection on the section's s(t). The
 fast planner must agree with it (tests/test_plan_reference.py).
 """
 from __future__ import annotations
@@ -51,6 +53,53 @@ def peak(va, vb, L, J, A, cap):
     if ramp_distance(va, cap, J, A) + ramp_distance(cap, vb, J, A) <= L:
         return cap
     return bisect(lambda v: ramp_distance(va, v, J, A) + ramp_distance(v, vb, J, A) <= L, lo, cap)
+
+
+# ---- each ramp under the least limits of the blocks it runs through ---------------------------
+
+def ramp_cover(walk, v0, v1, fallback):
+    """(J, A) of the ramp v0 -> v1 laid from a knot over ``walk`` = [(distance from the knot
+    to the block's near end, J, A)] of the moving blocks in the order the ramp meets them: the
+    least over the blocks it reaches, found by growing the covered set until it is stable."""
+    if not walk:
+        return fallback
+    J, A = walk[0][1], walk[0][2]
+    while True:
+        D = ramp_distance(v0, v1, J, A)
+        cov = [w for w in walk if w[0] < D / (1 + 1e-12)] or walk[:1]
+        J2, A2 = min(w[1] for w in cov), min(w[2] for w in cov)
+        if (J2, A2) == (J, A):
+            return J, A
+        J, A = J2, A2
+
+
+def reach_cover(v_end, walk, L, fallback):
+    """Highest feed from which one ramp (limits by :func:`ramp_cover`) reaches ``v_end``
+    within L (bisection: the ramp's length grows with the feed)."""
+    def fits(v):
+        return ramp_distance(v, v_end, *ramp_cover(walk, v, v_end, fallback)) <= L * (1 + 1e-12)
+
+    if L <= 0:
+        return v_end
+    hi = v_end + 1.0
+    while fits(hi):
+        hi = v_end + 2 * (hi - v_end)
+    return bisect(fits, v_end, hi)
+
+
+def peak_cover(sc):
+    """Eq. 16 with each ramp under the limits it covers (bisection on the peak)."""
+    va, vb, L, cap = sc["va"], sc["vb"], sc["L"], sc["cap"]
+
+    def used(v):
+        up = ramp_distance(va, v, *ramp_cover(sc["fwd"], va, v, sc["JA"]))
+        down = ramp_distance(v, vb, *ramp_cover(sc["bwd"], v, vb, sc["JA"]))
+        return up + down
+
+    lo = max(va, vb)
+    if cap <= lo or used(cap) <= L:
+        return cap
+    return bisect(lambda v: used(v) <= L * (1 + 1e-12), lo, cap)
 
 
 def ramp_phases(v0, v1, J, A):
@@ -143,30 +192,38 @@ def plan_reference(path, machine, options, limits, creep_tol=0.01):
         secs = []
         for a, b in zip(knots[:-1], knots[1:]):
             c = min(min(cap[a:b]), min([p[k] for k in range(a + 1, b)], default=math.inf))
-            secs.append(dict(a=a, b=b, L=S[b] - S[a], J=min(J[a:b]), A=min(A[a:b]), cap=c))
+            moving = [k for k in range(a, b) if L[k] > 0]
+            fwd = [(S[k] - S[a], J[k], A[k]) for k in moving]
+            bwd = [(S[b] - S[k + 1], J[k], A[k]) for k in reversed(moving)]
+            secs.append(dict(a=a, b=b, L=S[b] - S[a], J=min(J[a:b]), A=min(A[a:b]), cap=c,
+                             fwd=fwd, bwd=bwd, JA=(min(J[a:b]), min(A[a:b]))))
         w = [p[k] for k in knots]
         for i, sc in enumerate(secs):
             w[i] = min(w[i], sc["cap"])
             w[i + 1] = min(w[i + 1], sc["cap"])
         for i in range(len(secs) - 1, -1, -1):
-            w[i] = min(w[i], reach(w[i + 1], secs[i]["L"], secs[i]["J"], secs[i]["A"]))
+            if w[i] > w[i + 1]:
+                w[i] = min(w[i], reach_cover(w[i + 1], secs[i]["bwd"], secs[i]["L"], secs[i]["JA"]))
         for i in range(len(secs)):
-            w[i + 1] = min(w[i + 1], reach(w[i], secs[i]["L"], secs[i]["J"], secs[i]["A"]))
+            if w[i + 1] > w[i]:
+                w[i + 1] = min(w[i + 1], reach_cover(w[i], secs[i]["fwd"], secs[i]["L"], secs[i]["JA"]))
         for i, sc in enumerate(secs):
             sc["va"], sc["vb"] = w[i], w[i + 1]
-            sc["peak"] = peak(w[i], w[i + 1], sc["L"], sc["J"], sc["A"], sc["cap"])
+            sc["peak"] = peak_cover(sc)
+            sc["up"] = ramp_cover(sc["fwd"], sc["va"], sc["peak"], sc["JA"])
+            sc["down"] = ramp_cover(sc["bwd"], sc["peak"], sc["vb"], sc["JA"])
         return secs
 
     secs = solve(knots, p)
     for _ in range(8):
         # walk along the path growing groups of sections while the group's highest peak
-        # stays at or below its lowest set point (the joined knots' caps included)
+        # stays below its lowest set point (the joined knots' caps included)
         remove = set()
         group_cap, group_peak = secs[0]["cap"], secs[0]["peak"]
         for i in range(1, len(secs)):
             new_cap = min(group_cap, secs[i]["cap"], p[knots[i]])
             new_peak = max(group_peak, secs[i]["peak"])
-            if knots[i] not in keep and new_peak <= new_cap * (1 + 1e-9):
+            if knots[i] not in keep and new_peak <= new_cap * (1 + 1e-12):
                 remove.add(knots[i])
                 group_cap, group_peak = new_cap, new_peak
             else:
@@ -203,12 +260,12 @@ def plan_reference(path, machine, options, limits, creep_tol=0.01):
 
 def section_profile(sc):
     """[(duration, jerk)] of the section's law, and the steady length."""
-    up = ramp_distance(sc["va"], sc["peak"], sc["J"], sc["A"])
-    down = ramp_distance(sc["peak"], sc["vb"], sc["J"], sc["A"])
+    up = ramp_distance(sc["va"], sc["peak"], *sc["up"])
+    down = ramp_distance(sc["peak"], sc["vb"], *sc["down"])
     steady = max(sc["L"] - up - down, 0.0)
-    phases = ramp_phases(sc["va"], sc["peak"], sc["J"], sc["A"])
+    phases = ramp_phases(sc["va"], sc["peak"], *sc["up"])
     phases.append((steady / sc["peak"] if sc["peak"] > 0 else 0.0, 0.0))
-    phases += ramp_phases(sc["peak"], sc["vb"], sc["J"], sc["A"])
+    phases += ramp_phases(sc["peak"], sc["vb"], *sc["down"])
     return phases
 
 

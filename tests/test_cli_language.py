@@ -46,10 +46,10 @@ def test_definitions_and_block_budget(tmp_path):
     r = invoke("run", prog, "-m", "mikron")
     assert r.exit_code == 2 and r.stderr.strip() == f"{prog}:1:11: undefined variable _PITCH (DEF it first)"
     loop = tmp_path / "loop.mpf"
-    loop.write_text("R1=0\nG1 F100\nTOP: R1=R1+1\nX=R1\nGOTOB TOP\n")
+    loop.write_text("R1=0\nG1 F100\nTOP: R1=R1+1\nX=R1\nIF R1>0 GOTOB TOP\n")
     r = invoke("parse", loop, "--block-budget", "100")
     assert r.exit_code == 2 and r.stderr.strip().startswith(
-        f"{loop}:5:1: block budget of 100 blocks exceeded: endless loop? this jump back was taken")
+        f"{loop}:5:9: block budget of 100 blocks exceeded: endless loop? this jump back was taken")
 
 
 def test_a_failing_run_prints_the_warnings_before_its_error(tmp_path):

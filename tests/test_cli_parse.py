@@ -87,13 +87,14 @@ def test_missing_files_and_bad_setup(tmp_path, program):
 
 
 def test_endless_loop_exits_2_at_its_line(tmp_path):
-    """The block budget (--block-budget) stops a loop with one line at the jump that closes it."""
+    """The block budget (--block-budget) stops a loop with one line at the jump that closes it
+    (a loop whose jump tests a condition: one that decides nothing stops at its second pass)."""
     p = tmp_path / "loop.mpf"
-    p.write_text("G1 F100\nTOP: G91 X1\nGOTOB TOP\n")
+    p.write_text("G1 F100\nTOP: G91 X1\nIF R1==0 GOTOB TOP\n")
     r = invoke(p, "--block-budget", "50")
     assert r.exit_code == 2
     # blocks: line 1, then lines 2, 3, 2, 3, ...: block 51 is line 3, after 24 jumps back
-    assert r.stderr.strip() == (f"{p}:3:1: block budget of 50 blocks exceeded: endless loop? this "
+    assert r.stderr.strip() == (f"{p}:3:10: block budget of 50 blocks exceeded: endless loop? this "
                                 f"jump back was taken 24 times (--block-budget N allows more)")
 
 

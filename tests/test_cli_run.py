@@ -250,9 +250,9 @@ def test_a_move_that_rounds_to_nothing_makes_no_block(tmp_path):
 @pytest.mark.parametrize("text, warnings", [
     ("", ["{p}: warning: the program ends without M30, M2 or M17 (truncated?)",
           "{p}: warning: no motion: the program moves no axis"]),
-    ("; CAM output cut short\n", ["{p}:1:0: warning: the program ends without M30, M2 or M17 (truncated?)",
+    ("; CAM output cut short\n", ["{p}:1:1: warning: the program ends without M30, M2 or M17 (truncated?)",
                                    "{p}: warning: no motion: the program moves no axis"]),
-    ("G1 X10 F1000\nG1 Y10\n", ["{p}:2:0: warning: the program ends without M30, M2 or M17 (truncated?)"]),
+    ("G1 X10 F1000\nG1 Y10\n", ["{p}:2:1: warning: the program ends without M30, M2 or M17 (truncated?)"]),
     ("G1 X10 F1000\nM17\n", []),
     ("G4 F1\nM30\n", ["{p}: warning: no motion: the program moves no axis"]),
     # a subprogram file run on its own (real ones start with comments): not a truncated export

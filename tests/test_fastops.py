@@ -178,24 +178,114 @@ def test_return_from_the_main_program_inside_a_loop():
     ("G1 F100\nLOOP\nG1 X0\nG1 X1\nENDLOOP\nM30\n", 5),
     ("WHILE 1\nR1=R1*0\nENDWHILE\n", 3),
     ("G1 F100\nTOP: X1\nX2\nGOTOB TOP\n", 4),
-    ("G1 F100\nR1=0\nTOP: R1=R1+1\nIF R1>=3 GOTOF RESET\nX=R1\nGOTOB TOP\nRESET: R1=0\nGOTOB TOP\n", 6),
+    # moving endless loops: the position and R1 grow, no state repeats, nothing decides
+    ("G91 G1 F1000\nLOOP\nX1 Y0.5\nENDLOOP\nM30\n", 4),
+    ("R1=0\nG1 F100\nLOOP\nR1=R1+1\nX=R1\nENDLOOP\n", 6),
+    ("R1=0\nG1 F100\nWHILE 1==1\nR1=R1+1\nX=R1 Y=SIN(R1)\nENDWHILE\n", 6),
 ])
 @pytest.mark.parametrize("fast", [True, False])
-def test_a_loop_back_in_the_same_state_stops_at_its_jump(text, line, fast):
+def test_a_loop_that_decides_nothing_stops_at_its_second_pass(text, line, fast):
+    """Between two passes of its jump back no condition on the program's state is evaluated:
+    the same blocks run again forever (the 840D would run it until the operator stops it)."""
     with pytest.raises(NcSemanticError) as info:
         interpret_text(text, "loop.mpf", fast=fast)
     err = info.value
     assert err.line == line and err.message.startswith(
+        "endless loop: nothing between two passes of this jump back decides anything")
+    assert err.message.endswith("(taken 2 times)")
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_a_loop_back_in_the_same_state_stops_at_its_jump(fast):
+    text = "G1 F100\nR1=0\nTOP: R1=R1+1\nIF R1>=3 GOTOF RESET\nX=R1\nGOTOB TOP\nRESET: R1=0\nGOTOB TOP\n"
+    with pytest.raises(NcSemanticError) as info:
+        interpret_text(text, "loop.mpf", fast=fast)
+    err = info.value
+    assert err.line == 6 and err.message.startswith(
         "endless loop: at this jump back the program returns to the same state")
     taken = int(err.message.split("taken ")[1].split(" ")[0])
     assert taken <= 1024 + 64                    # stopped after about a thousand passes
 
 
-def test_a_growing_loop_is_stopped_by_the_budget_at_its_jump():
-    text = "R1=0\nG1 F100\nLOOP\nR1=R1+1\nX=R1\nENDLOOP\n"
-    with pytest.raises(NcSemanticError, match=r"loop.mpf:6:1: block budget of 3000 blocks exceeded: "
-                                              r"endless loop\? this jump back was taken 999 times"):
-        interpret_text(text, "loop.mpf", block_budget=3000)
+@pytest.mark.parametrize("text", [
+    "R1=0\nG1 F100\nLOOP\nR1=R1+1\nIF R1<0 GOTOF OUT\nX=R1\nENDLOOP\nOUT: M30\n",
+    "R1=0\nG1 F100\nLOOP\nR1=R1+1\nIF R1<0\nGOTOF OUT\nENDIF\nX=R1\nENDLOOP\nOUT: M30\n",
+])
+@pytest.mark.parametrize("fast", [True, False])
+def test_loops_that_may_end_are_not_taken_for_endless_ones(text, fast):
+    """A loop whose passes test a condition (here one that never holds) is left to the block
+    budget: the interpreter cannot know that R1 < 0 never holds. Blocks: 3 before the loop,
+    then 4 a pass (the false IF skips its GOTOF and ENDIF); the 3001st block is in pass 750:
+    749 jumps back."""
+    jump = text.split("\n").index("ENDLOOP") + 1
+    with pytest.raises(NcSemanticError, match=rf"loop.mpf:{jump}:1: block budget of 3000 blocks "
+                                              r"exceeded: endless loop\? this jump back was taken "
+                                              r"749 times"):
+        interpret_text(text, "loop.mpf", block_budget=3000, fast=fast)
+
+
+def test_a_passing_condition_of_a_subprogram_is_no_proof(tmp_path):
+    """Between two takings of the GOTOB in SUB nothing decides, but they are in two calls of
+    SUB (returned to different places of MAIN): the program ends, it is no endless loop."""
+    text = ("G1 F100\nSUB\nSUB\nM30\nPROC SUB\nGOTOF MB\nMA: X=IC(1)\nRET\nMB: GOTOB MA\n")
+    result = interpret_text(text, "main.mpf")
+    assert result.path.n == 2
+
+
+# ---- FOR loops: bounded, so their passes are not charged to the automatic budget -------------
+
+@pytest.fixture
+def small_budget(monkeypatch):
+    """An automatic budget of the program's lines + 1,000 blocks (2,000,000 by default)."""
+    from ncsim.nc import context
+    monkeypatch.setattr(context, "DEFAULT_LOOP_BUDGET", 1000)
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_a_for_loop_longer_than_the_budget_runs(small_budget, fast):
+    """1,900 passes of 2 blocks against a budget of 1,005 (a FOR loop of 1.9 million passes
+    against the default one): each pass raises the counter towards the end fixed at the FOR,
+    so the loop is bounded and its passes are given back."""
+    text = "G1 F100\nFOR R1=1 TO 1900\nX=R1\nENDFOR\nM30\n"
+    result = interpret_text(text, "for.mpf", fast=fast)
+    assert result.path.n == 1900 and result.blocks_executed == 2 + 2 * 1900 + 1
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_nested_for_loops_longer_than_the_budget_run(small_budget, fast):
+    """30 x 40 passes (2,463 blocks): the inner passes are given back once, not again as part
+    of the outer pass that holds them."""
+    text = "G1 F100\nFOR R1=1 TO 30\nFOR R2=1 TO 40\nX=R2 Y=R1\nENDFOR\nENDFOR\nM30\n"
+    result = interpret_text(text, "for.mpf", fast=fast)
+    assert result.path.n == 30 * 40
+    assert result.blocks_executed == 2 + 30 * (1 + 40 * 2 + 1) + 1
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_a_for_loop_whose_body_sets_its_counter_back_is_charged(small_budget, fast):
+    """The counter never gets past 2: no pass brings the end nearer, every pass is charged
+    (the moving position keeps the state from repeating)."""
+    text = "G1 F100\nR2=0\nFOR R1=1 TO 10\nR1=1\nR2=R2+1\nX=R2\nENDFOR\nM30\n"
+    with pytest.raises(NcSemanticError, match=r"for.mpf:7:1: block budget of 1008 blocks "
+                                              r"exceeded: endless loop\? this jump back was taken"):
+        interpret_text(text, "for.mpf", fast=fast)
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_an_endless_loop_inside_a_for_loop_is_stopped(small_budget, fast):
+    """The FOR's own passes are given back; the WHILE inside never lets one end."""
+    text = ("G1 F100\nR2=0\nFOR R1=1 TO 500\nX=R1\nENDFOR\nFOR R1=1 TO 5\nWHILE R1>0\n"
+            "R2=R2+1\nY=R2\nENDWHILE\nENDFOR\nM30\n")
+    with pytest.raises(NcSemanticError, match=r"for.mpf:10:1: block budget of 1012 blocks "
+                                              r"exceeded: endless loop\? this jump back was taken"):
+        interpret_text(text, "for.mpf", fast=fast)
+
+
+def test_an_explicit_block_budget_counts_every_block():
+    """--block-budget N stops after N executed blocks, FOR passes included."""
+    text = "G1 F100\nFOR R1=1 TO 1900\nX=R1\nENDFOR\nM30\n"
+    with pytest.raises(NcSemanticError, match=r"for.mpf:4:1: block budget of 1000 blocks exceeded"):
+        interpret_text(text, "for.mpf", block_budget=1000)
 
 
 def test_rows_become_columns_while_a_loop_runs(monkeypatch):
@@ -208,7 +298,7 @@ def test_rows_become_columns_while_a_loop_runs(monkeypatch):
         real(self, row)
         seen.append(len(self.rows))
     monkeypatch.setattr(context.PathOutput, "append", append)
-    text = "R1=0\nG1 F100\nLOOP\nR1=R1+1\nX=R1\nENDLOOP\n"
+    text = "R1=0\nG1 F100\nLOOP\nR1=R1+1\nIF R1<0 GOTOF OUT\nX=R1\nENDLOOP\nOUT: M30\n"
     with pytest.raises(NcSemanticError, match="block budget"):
         interpret_text(text, "loop.mpf", block_budget=30_000)
     assert len(seen) > ROWS_PER_FLUSH and max(seen) < ROWS_PER_FLUSH

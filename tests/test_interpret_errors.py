@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from ncsim.errors import NcError, NcSemanticError, NcSyntaxError, NcUnsupportedError
+from ncsim.errors import NcError, NcSemanticError, NcSyntaxError, NcUnsupportedError, shown
 from ncsim.nc.interpret import interpret_text
 
 CASES = [
@@ -29,10 +29,15 @@ CASES = [
      "jump destination NIRVANA not found (GOTOF searches forward)"),
     ("label only backwards", "BACK: G1 F100\nGOTOF BACK\n", NcSemanticError, 2, 7, "BACK not found"),
     ("missing block number", "G1 F100\nGOTOB N5\n", NcSemanticError, 2, 7, "jump destination N5 not found"),
-    # the budget error names the jump back that closes the loop
+    # a loop that decides nothing stops at its second pass, moving or not; the budget error
+    # names the jump back that closes the loop
     ("endless loop", "G1 F100\nTOP: G91 X1\nGOTOB TOP\n", NcSemanticError, 3, 1,
-     "block budget of 101 blocks exceeded: endless loop? this jump back was taken 50 times"),
-    ("endless while", "WHILE 1\nENDWHILE\n", NcSemanticError, 2, 1, "block budget of 101 blocks exceeded"),
+     "endless loop: nothing between two passes of this jump back decides anything"),
+    ("endless while", "WHILE 1\nENDWHILE\n", NcSemanticError, 2, 1,
+     "endless loop: nothing between two passes of this jump back decides anything"),
+    ("endless loop with a condition", "G1 F100\nR1=0\nTOP: R1=R1+1\nX=R1\nIF R1>0 GOTOB TOP\n",
+     NcSemanticError, 5, 9,
+     "block budget of 101 blocks exceeded: endless loop? this jump back was taken 33 times"),
     ("endif without if", "G1 F100\nENDIF\n", NcSemanticError, 2, 1, "ENDIF without IF"),
     ("if without endif", "IF R1==0\nG1 F100\n", NcSemanticError, 1, 1, "IF without ENDIF"),
     ("crossed structures", "WHILE 1\nIF 1\nENDWHILE\n", NcSemanticError, 3, 1, "ENDWHILE closes IF of line 2"),
@@ -130,8 +135,8 @@ def test_errors_in_plain_runs_are_located_the_same_way(fast):
 def test_budget_inside_a_plain_run_names_the_loop(fast):
     # 42 lines; passes 2 and 3 restart at line 2 (block 43 and 84): block 101 is line 19, in the
     # third pass, after the GOTOB of line 42 was taken twice
-    prog = "G1 F100\nTOP:\n" + "".join(f"X{i}\n" for i in range(1, 40)) + "GOTOB TOP\n"
-    with pytest.raises(NcSemanticError, match=r"run.mpf:42:1: block budget of 100 blocks exceeded: "
+    prog = "G1 F100\nTOP:\n" + "".join(f"X{i}\n" for i in range(1, 40)) + "IF R1==0 GOTOB TOP\n"
+    with pytest.raises(NcSemanticError, match=r"run.mpf:42:10: block budget of 100 blocks exceeded: "
                                               r"endless loop\? this jump back was taken 2 times"):
         interpret_text(prog, "run.mpf", block_budget=100, fast=fast)
 
@@ -143,4 +148,4 @@ def test_a_word_too_long_for_a_file_name_is_an_unknown_word(tmp_path):
     with pytest.raises(NcSemanticError) as info:
         interpret_text(f"G1 X1 F100\n{word}\nM30\n", "long.mpf", search_dir=tmp_path)
     assert (info.value.line, info.value.column) == (2, 1)
-    assert info.value.message.startswith(f"subprogram {word} not found")
+    assert info.value.message.startswith(f"subprogram {shown(word)} not found")

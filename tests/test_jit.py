@@ -128,7 +128,7 @@ def paper_program_paths(repo_root):
 def test_small_calls_run_plain_python_and_large_ones_compiled(monkeypatch):
     monkeypatch.setattr(jit, "_active", False)
     monkeypatch.delenv("NCSIM_KERNELS", raising=False)
-    k = K.knot_feeds
+    k = K.peak_feeds
     assert k.pick(10) is k.py and k.pick(k.python_below - 1) is k.py
     assert k.pick(k.python_below) is not k.py
     with jit.forced("compiled"):

@@ -321,7 +321,8 @@ def test_inner_states_equal_the_states_read_off_the_pieces(seed):
     p = np.where(rng.random(n + 1) < 0.3, rng.uniform(0, 120, n + 1), np.inf)
     p[[0, n]] = 0.0
     knots = np.unique(np.concatenate([[0, n], rng.choice(n, 60)]))
-    sol = la._solve_knots(knots, np.minimum(p, np.append(cap, np.inf)), cap, jerk, accel, s_j)
+    blocks = la._Blocks(jerk, accel, lengths, s_j)
+    sol = la._solve_knots(knots, np.minimum(p, np.append(cap, np.inf)), cap, blocks)
     zeros = np.zeros(n + 1, dtype=np.int8)
     _, _, v_ref, a_ref = la._pieces_and_junctions(sol, s_j, zeros, zeros, zeros,
                                                   np.zeros(n + 1))

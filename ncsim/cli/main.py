@@ -32,9 +32,9 @@ from ncsim.units import FEED_UNITS, s_to_ms
 
 
 class NcsimGroup(click.Group):
-    """A click group that turns ncsim errors and usage errors into one line on stderr and exit
-    status 2, and Ctrl-C into exit status 130 (128 + SIGINT, as shells do; 1 means a failed
-    check)."""
+    """A click group that turns ncsim errors, usage errors and running out of memory into one
+    line on stderr and exit status 2, and Ctrl-C into exit status 130 (128 + SIGINT, as shells
+    do; 1 means a failed check)."""
 
     def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
         try:                     # the group's own options: `ncsim --badopt`
@@ -63,6 +63,11 @@ class NcsimGroup(click.Group):
             if type(exc).__name__ == "NoArgsIsHelpError":  # `ncsim run` alone: show the help
                 raise
             click.echo(_usage_line(exc), err=True)
+            ctx.exit(int(ExitStatus.BAD_INPUT))
+        except MemoryError:          # outside a stage that names its input (pipeline.simulate)
+            where = f"{ctx.command_path} {ctx.invoked_subcommand or ''}".rstrip()
+            click.echo(f"{where}: error: out of memory: the input is too large for the memory "
+                       "this process may use", err=True)
             ctx.exit(int(ExitStatus.BAD_INPUT))
 
 
@@ -101,7 +106,7 @@ def program_options(func):
     the block budget (``nc_options`` pops them for ``pipeline.simulate``)."""
     func = click.option("--block-budget", type=click.IntRange(min=1), default=None, metavar="N",
                         help="Stop as an endless loop after N executed blocks [default: the "
-                             "program's lines + 2,000,000].")(func)
+                             "program's lines + 2,000,000, FOR loop passes not counted].")(func)
     func = click.option("--definitions", type=click.Path(dir_okay=False, exists=True), multiple=True,
                         metavar="FILE", help="GUD definitions file (MGUD.DEF, UGUD.DEF: DEF "
                         "NCK|CHAN type name), read before the program; repeatable.")(func)

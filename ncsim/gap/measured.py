@@ -19,7 +19,9 @@ no time column (optionally times a row-index column, so that missing rows show a
 
 Known recorders' layouts are detected from the header (:data:`PRESETS`, e.g. the KIT wbk
 SINUMERIK Edge datasets). Samples may be missing (non-uniform but increasing time is fine); a
-repeated or decreasing time, an empty cell, a NaN or a missing column is an error.
+repeated or decreasing time, an empty cell, a NaN or a missing column is an error, and so are
+values no recording has: a sample period (the median time step) under 1 us, a value beyond
++-1e9 in mm and s (the 840D's position range).
 """
 from __future__ import annotations
 
@@ -30,13 +32,17 @@ from typing import Mapping
 import numpy as np
 
 from ncsim.errors import MeasuredDataError, UsageError
-from ncsim.config import CsvTable, read_table
+from ncsim.config import MAX_OFFSET_MM, CsvTable, read_table
 # published values (TOML) are read by ncsim.gap.summaryfile; their names stay importable here
 from ncsim.gap.summaryfile import (MeasuredSummary, SummaryEntry,  # noqa: F401
                                    load_measured_summary, summary_from_dict)
 from ncsim.units import FACTORS, mm_s_to_mm_min
 
 AXES = ("x", "y", "z")
+#: the shortest sample period of a recording: 1 us (no drive's control cycle is that fast)
+MIN_SAMPLE_PERIOD_S = 1e-6
+#: the largest magnitude of a recorded value in mm and s: the 840D's position range
+MAX_MAGNITUDE = MAX_OFFSET_MM
 
 # ---------------------------------------------------------------------------------------------
 # Units
@@ -351,13 +357,37 @@ def _resolve_columns(table: CsvTable, columns: Mapping[str, str] | None,
 
 
 def _check_time(table: CsvTable, t: np.ndarray) -> None:
-    bad = np.nonzero(np.diff(t) <= 0)[0]
+    """Time increases, by a sample period (the median step) of at least
+    ``MIN_SAMPLE_PERIOD_S``."""
+    steps = np.diff(t)
+    bad = np.nonzero(steps <= 0)[0]
     if len(bad):
         i = int(bad[0]) + 1
         what = "repeats" if t[i] == t[i - 1] else "goes back from"
         raise MeasuredDataError(f"time {t[i]:.9g} s {what} the previous sample's "
                                 f"({t[i - 1]:.9g} s at line {table.line_of(i - 1)}): time must "
                                 "increase", file=table.file, line=table.line_of(i))
+    if len(steps) and float(np.median(steps)) < MIN_SAMPLE_PERIOD_S:
+        raise MeasuredDataError(f"the samples are {float(np.median(steps)):.3g} s apart (the "
+                                f"median time step), under {MIN_SAMPLE_PERIOD_S * 1e6:g} us: a "
+                                "recorder at over 1 MHz, faster than any control cycle of a "
+                                "drive (the time in another unit?)", file=table.file)
+
+
+def _check_magnitudes(table: CsvTable, columns: Mapping[str, tuple[str, np.ndarray]]) -> None:
+    """Every value, converted to mm and s, within ``MAX_MAGNITUDE`` (the 840D's position range
+    +-999 999 999.9999; no speed, acceleration or time of a recording comes near it): a value
+    of 1e300 is an export error, and arithmetic on it overflows."""
+    for key, (name, v) in columns.items():
+        bad = np.flatnonzero(~(np.abs(v) < MAX_MAGNITUDE))
+        if len(bad):
+            unit = {"length": "mm", "time": "s", "velocity": "mm/s", "acceleration": "mm/s^2"}
+            kind = KEY_KIND.get(key, "")
+            raise MeasuredDataError(f"column '{name}' holds {v[bad[0]]:g} {unit.get(kind, '')}"
+                                    .rstrip() + f", beyond +-{MAX_MAGNITUDE:g} (the 840D's "
+                                    "position range in mm; no recorded time, speed or "
+                                    "acceleration comes near it either)",
+                                    file=table.file, line=table.line_of(int(bad[0])))
 
 
 def _data_table(file) -> CsvTable:
@@ -395,8 +425,10 @@ def load_measured_csv(file, *, columns: Mapping[str, str] | None = None,
     if sample_period_s is not None:
         if "t" in columns:
             raise UsageError("give either a time column or sample_period_s, not both")
-        if not (math.isfinite(sample_period_s) and sample_period_s > 0):
-            raise UsageError(f"sample_period_s must be positive, got {sample_period_s!r}")
+        if not (math.isfinite(sample_period_s) and sample_period_s >= MIN_SAMPLE_PERIOD_S):
+            raise UsageError(f"the sample period must be at least {MIN_SAMPLE_PERIOD_S * 1e6:g} "
+                             f"us (a recorder at over 1 MHz, faster than any control cycle of a "
+                             f"drive), got {sample_period_s:g} s")
     layout = {k: v for k, v in (PRESETS[preset] if preset else {}).items()
               if not (k == "t" and sample_period_s is not None)}
     columns = {**layout, **columns}
@@ -430,6 +462,7 @@ def load_measured_csv(file, *, columns: Mapping[str, str] | None = None,
         raise MeasuredDataError("no data rows after the header", file=name)
     values = {k: block[:, j] * resolved[k][2] for j, k in enumerate(keys)}
     m = len(block)
+    _check_magnitudes(table, {k: (resolved[k][1], v) for k, v in values.items()})
 
     def col(key):
         return values[key]

@@ -31,6 +31,7 @@ The :class:`GapResult` it returns is what the command prints: ``as_dict()`` (``-
 """
 from __future__ import annotations
 
+import os
 import re
 from dataclasses import dataclass, replace
 from pathlib import Path as FsPath
@@ -38,6 +39,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
+from ncsim.config import not_regular
 from ncsim.errors import MeasuredDataError, UsageError
 from ncsim.gap.effects import COMMAND_EFFECTS, Model, corrected_machine, get_effect
 from ncsim.gap.measured import MeasuredTrace, detect_preset, load_measured_csv, load_umich_csv
@@ -177,6 +179,8 @@ def detect_format(file: str | FsPath, fmt: str = "auto") -> str:
     if FsPath(file).suffix.lower() == ".toml":
         return "summary"
     try:
+        if not_regular(os.stat(file).st_mode):   # a FIFO would block the reading of a line
+            return "csv"
         with open(file, encoding="utf-8-sig", errors="replace") as fh:
             head = fh.readline()
     except OSError:

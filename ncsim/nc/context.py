@@ -18,6 +18,7 @@ or warn is executed block by block instead.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from operator import itemgetter
 from pathlib import Path as FsPath
@@ -52,8 +53,7 @@ APPROXIMATE_KINDS = {
     "cycle": "machining cycles without their source are not simulated (no motion)",
     "missing subprogram": "missing subprograms are skipped (no motion)",
     "MCALL": "modal calls of cycles without their source are not executed",
-    "CYCLE832": "parts of CYCLE832 are not simulated (the dynamic response of its technology "
-                "group, higher digits of an old code)",
+    "CYCLE832": "parts of CYCLE832 are not simulated (higher digits of an old code)",
     "G644": "G644 is simulated as G642",
     "CYCLE800": "CYCLE800 swivelling is not simulated",
     "rotary axis": "rotary axis motion is not simulated",
@@ -64,8 +64,8 @@ APPROXIMATE_KINDS = {
     "dwell": "a G4 S dwell without spindle speed is taken as 0 s",
     "spindle positioning": "spindle positioning (SPOS) times are not simulated",
     "system variable": "assignments to system variables are not simulated",
-    **{name: "dynamic response modes are not simulated" for name in (
-        "DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "DYNPREC")},
+    **{name: "technology groups the machine file does not define run with its [axes] dynamics"
+       for name in ("DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "DYNPREC")},
     **{name: f"{what} ({name}) is not simulated" for name, what in COMMANDS_NOT_SIMULATED.items()},
 }
 
@@ -153,6 +153,9 @@ class CallFrame:
     args: tuple = ()
     repeats_left: int = 1
     for_end: dict = field(default_factory=dict)
+    #: FOR block -> [highest counter value a pass went back with, blocks executed and
+    #: blocks refunded at the last pass]: what :meth:`InterpreterState.for_jump_back` refunds
+    for_marks: dict = field(default_factory=dict)
     repeats: dict = field(default_factory=dict)      # REPEAT block -> repetitions left
     section_ends: list = field(default_factory=list)  # (last item of a section, its REPEAT)
     saved: object = None         # the modal state a SAVE subprogram restores at its return
@@ -212,10 +215,14 @@ class InterpreterState:
         ncu = machine.ncu if machine is not None else None
         self.circle_const_mm = ncu.circle_error_const_mm if ncu else DEFAULT_CIRCLE_ERROR_CONST_MM
         self.circle_factor = ncu.circle_error_factor if ncu else DEFAULT_CIRCLE_ERROR_FACTOR
-        # never replaced: collaborators keep a reference; groups 10 (path mode) and 30
-        # (compressor) start at the machine's reset values (MD20150 $MC_GCODE_RESET_VALUES)
-        self.st = (ModalState(cp_mode=ncu.reset_path_mode, compressor=ncu.reset_compressor)
+        # never replaced: collaborators keep a reference; groups 10 (path mode), 30
+        # (compressor), 6 (plane) and 29 (diameter programming) start at the machine's reset
+        # values (MD20150 $MC_GCODE_RESET_VALUES)
+        self.st = (ModalState(cp_mode=ncu.reset_path_mode, compressor=ncu.reset_compressor,
+                              plane=ncu.reset_plane, diameter=ncu.reset_diameter_mode)
                    if ncu else ModalState())
+        #: MD20100 $MC_DIAMETER_AX_DEF: the transverse axis (0 = X), :mod:`ncsim.nc.diameter`
+        self.diameter_axis = ncu.diameter_axis if ncu else 0
         # the reset values CYCLE832's deselection returns to (MD20150 $MC_GCODE_RESET_VALUES)
         self.reset_values = (self.st.cp_mode, self.st.accel_mode, self.st.ffw)
         self.cycle832_notes: set = set()   # one-time CYCLE832 warnings already given
@@ -224,7 +231,11 @@ class InterpreterState:
         given = getattr(machine, "system_variables", ()) if machine is not None else ()
         self.vars.sysvars = SystemVariables(self, dict(given))
         self.blocks = 0
-        self.loop_counts: dict = {}        # (file, line, col) of a jump back -> times taken
+        self.refunded = 0                  # blocks of FOR passes given back to the budget
+        self.decisions = 0                 # conditions on the program's state evaluated
+        #: (file, line, col) of a jump back -> [times taken, FOR passes refunded, decisions
+        #: and frame when last taken]
+        self.jumps_back: dict = {}
         self._loop_states: dict = {}       # jump back -> (last pass to compare, kept state)
         self.f_value = 0.0                 # the last F as programmed ($P_F)
         self.feed_type = 94                # G93/G94/G95/G97/G971 (group 15)
@@ -237,6 +248,7 @@ class InterpreterState:
         self.warnings = Warnings()
         self.recorded: list[RecordedCall] = []
         self.units: dict = {}              # name -> ncsim.nc.flow.Unit (PROCs and files)
+        self.macros: dict = {}             # DEFINE ... AS of the definitions files
         self.out: PathOutput | None = None
         self.ended = False
         self.line = 0                      # line of the block being executed
@@ -268,12 +280,61 @@ class InterpreterState:
         self.count_jump((file, line, col))
 
     def count_jump(self, key: tuple) -> None:
-        """Count a jump back at ``key`` (file, line, col); from the 1024th on, watch whether the
-        program comes back to the same state there (:meth:`_watch`)."""
-        n = self.loop_counts.get(key, 0) + 1
-        self.loop_counts[key] = n
+        """Count a jump back at ``key`` (file, line, col); stop a pass that decided nothing
+        (:meth:`_decided_nothing`); from the 1024th on, watch whether the program comes back
+        to the same state there (:meth:`_watch`)."""
+        seen = self.jumps_back.get(key)
+        frame = self.stack[-1]
+        if seen is None:
+            self.jumps_back[key] = [1, 0, self.decisions, frame]
+            return
+        if seen[2] == self.decisions and seen[3] is frame:
+            raise self._decided_nothing(key, seen[0] + 1)
+        n = seen[0] + 1
         if n >= LOOP_WATCH_FROM:
             self._watch(key, n)
+        seen[0] = n         # counted once it did not raise (a compiled op that raised runs
+        seen[2] = self.decisions    # its block again by the block path, which counts it)
+        seen[3] = frame
+
+    def _decided_nothing(self, key: tuple, n: int) -> NcError:
+        """An endless loop for certain, moving or not: between two takings of the same jump
+        back, in the same call of its unit, no condition on the program's state was evaluated
+        (no IF, WHILE, UNTIL, CASE, conditional jump, FOR or REPEAT count: ``decisions`` did
+        not change). Every jump destination is fixed, so what ran between the two takings runs
+        again, and again: nothing in the loop can end it (a LOOP without exit, WHILE 1, an
+        unconditional GOTOB). Found on the second pass, however much the loop moves."""
+        return NcSemanticError(f"endless loop: nothing between two passes of this jump back "
+                               f"decides anything (no condition on R parameters, variables or "
+                               f"counters), so nothing can end it (taken {n} times)", *key)
+
+    def for_jump_back(self, fr, start: int, value: float, key: tuple) -> None:
+        """The ENDFOR of the FOR block ``start`` goes back for another pass, its counter at
+        ``value`` (a decision: the counter against its end). A FOR loop is bounded: its end was
+        fixed when it began, and each pass that raises the counter by a whole step above every
+        pass before brings that end nearer. The automatic budget gets back the blocks of such
+        a pass (those not refunded already, by a FOR loop inside), so that a long FOR loop
+        runs however many passes it has, while a pass that does not advance the counter (the
+        body setting it back) is charged like any other loop's."""
+        self.decisions += 1
+        self.count_jump(key)
+        mark = fr.for_marks.get(start)
+        if mark is None:                    # a jump into the loop: no FOR began it here
+            mark = fr.for_marks[start] = [math.inf, self.blocks, self.refunded]
+        if value >= mark[0] + 1.0:
+            mark[0] = value
+            if self.auto_budget:
+                back = (self.blocks - mark[1]) - (self.refunded - mark[2])
+                self.budget += back
+                self.refunded += back
+                self.jumps_back[key][1] += 1
+        mark[1] = self.blocks
+        mark[2] = self.refunded
+
+    def for_begins(self, fr, start: int, value: float) -> None:
+        """The FOR block ``start`` begins with its counter at ``value``: the mark the passes
+        of :meth:`for_jump_back` are measured from."""
+        fr.for_marks[start] = [value, self.blocks, self.refunded]
 
     def _watch(self, key: tuple, n: int) -> None:
         """An endless loop for certain: at the same jump back, the whole state that decides what
@@ -307,12 +368,15 @@ class InterpreterState:
                 None if self.pole_wcs is None else tuple(self.pole_wcs), tuple(self.polar))
 
     def budget_error(self, file: str, line: int) -> NcError:
-        """The block budget is exhausted: the error names the jump back taken most often."""
-        what = f"block budget of {self.budget} blocks exceeded"
+        """The block budget is exhausted: the error names the jump back taken most often
+        (FOR passes given back to the budget not counted)."""
+        what = f"block budget of {self.budget - self.refunded} blocks exceeded"
         hint = "(--block-budget N allows more)"
-        if not self.loop_counts:
+        if not self.jumps_back:
             return NcSemanticError(f"{what}: endless loop? {hint}", file, line, 1)
-        (lfile, lline, lcol), n = max(self.loop_counts.items(), key=lambda kv: kv[1])
+        seen = self.jumps_back          # the passes the budget gave back do not count
+        key = max(seen, key=lambda k: seen[k][0] - seen[k][1])
+        (lfile, lline, lcol), n = key, seen[key][0]
         return NcSemanticError(f"{what}: endless loop? this jump back was taken {n} times "
                                f"{hint}", lfile, lline, lcol)
 

@@ -20,8 +20,9 @@ Semantics stay those of the block path, by construction and by test
   path, which raises the located error. Intermediate overflows that a later operator would hide
   (``x / inf``, a comparison, a function) are checked where they can be hidden;
 * an op decides before it changes anything whether it can do the block (a G1 without feed, a
-  value out of range, G95, an active MCALL ... send the block to the block path), except an
-  assignment block, whose assignments take effect one by one as on the control: an assignment
+  value out of range, G95, an active MCALL, the transverse axis under diameter programming ...
+  send the block to the block path), except an assignment block, whose assignments take
+  effect one by one as on the control: an assignment
   the compiled code cannot do is done by the block path's evaluator and ``assign``;
 * blocks that are none of: empty (labels, comments), R and numeric variable assignments,
   G0/G1 with X Y Z F, a jump (GOTO*, IF .. GOTO*, several of them), IF/ELSE/ENDIF, WHILE/
@@ -36,7 +37,7 @@ import math
 from ncsim.nc import program as P
 from ncsim.nc.context import WORD_VALUE_LIMIT, BlockContext
 from ncsim.nc.expr import FUNCTIONS, evaluate
-from ncsim.nc.flow import find_destination
+from ncsim.nc.flow import find_destination, reads_state
 from ncsim.units import mm_min_to_mm_s
 
 _NUMERIC_TYPES = ("REAL", "INT", "BOOL")
@@ -209,13 +210,14 @@ class _FlowOps:
     def _statement(self, unit, pc: int, block: P.Block, s):
         ec = self._expr(unit)
         if isinstance(s, P.Goto):
-            return self._jumps(unit, pc, block, [(None, s)])
+            return self._jumps(unit, pc, block, [(None, s, False)])
         if isinstance(s, P.IfGoto):
             cond = ec.source(s.cond)
-            return None if cond is None else self._jumps(unit, pc, block, [(cond, s.goto)])
+            return None if cond is None else self._jumps(unit, pc, block,
+                                                         [(cond, s.goto, reads_state(s.cond))])
         if isinstance(s, P.IfGotos):
-            conds = [(ec.source(j.cond), j.goto) for j in s.jumps]
-            if any(c is None for c, _ in conds):
+            conds = [(ec.source(j.cond), j.goto, reads_state(j.cond)) for j in s.jumps]
+            if any(c is None for c, *_ in conds):
                 return None
             return self._jumps(unit, pc, block, conds)
         if isinstance(s, (P.If, P.While, P.Until)):
@@ -226,10 +228,12 @@ class _FlowOps:
         return None
 
     def _jumps(self, unit, pc: int, block: P.Block, conds):
-        """GOTO*/IF .. GOTO* (one or several): the first true condition jumps."""
+        """GOTO*/IF .. GOTO* (one or several): the first true condition jumps. ``conds`` are
+        ``(source or None, Goto, decides)``: a condition that reads the program's state counts
+        as a decision (``InterpreterState.decisions``, as in ``flow.Flow._decide``)."""
         src, ns = self._head(unit, block)
         src += "    try:\n"
-        for k, (cond, goto) in enumerate(conds):
+        for k, (cond, goto, decides) in enumerate(conds):
             dest = find_destination(unit, goto, pc)
             if dest is None:
                 return None                      # the block path raises or goes on (GOTOC)
@@ -239,7 +243,8 @@ class _FlowOps:
             if cond is None:
                 src += jump
                 break
-            src += (f"        c = {cond}\n        if c - c != 0.0:\n            raise Fallback\n"
+            src += ("        state.decisions += 1\n" if decides else "") + (
+                    f"        c = {cond}\n        if c - c != 0.0:\n            raise Fallback\n"
                     f"        if c != 0.0:\n" + "".join("    " + ln + "\n"
                                                    for ln in jump.rstrip("\n").split("\n")))
         src += (f"    except Exception:\n        return generic(fr, {pc})\n"
@@ -248,7 +253,8 @@ class _FlowOps:
         return self._generate(src, ns)
 
     def _condition(self, unit, pc: int, block: P.Block, s, cond: str):
-        """IF (false: to ELSE/ENDIF), WHILE (false: after ENDWHILE), UNTIL (false: back)."""
+        """IF (false: to ELSE/ENDIF), WHILE (false: after ENDWHILE), UNTIL (false: back); a
+        condition that reads the program's state counts as a decision."""
         if isinstance(s, P.If):
             on_false, back = unit.else_of.get(pc, unit.pairs[pc]) + 1, False
         elif isinstance(s, P.While):
@@ -256,6 +262,8 @@ class _FlowOps:
         else:
             on_false, back = unit.pairs[pc] + 1, True
         src, ns = self._head(unit, block)
+        if reads_state(s.cond):
+            src += "    state.decisions += 1\n"
         src += (f"    try:\n        c = {cond}\n        if c - c != 0.0:\n"
                 f"            raise Fallback\n    except Exception:\n"
                 f"        return generic(fr, {pc})\n    if c == 0.0:\n")
@@ -307,6 +315,7 @@ class _FlowOps:
         col = s.col
         after = pc + 1
         is_r = isinstance(var, P.RParam)
+        key = (file, line, col)
 
         def op(fr):
             count()
@@ -323,8 +332,8 @@ class _FlowOps:
                 value = entry[1] + 1.0
                 entry[1] = value if entry[0] == "REAL" else _round_half_away(value)
             if value <= end:
-                state.jumped_back(file, line, col)
                 fr.pc = start + 1
+                state.for_jump_back(fr, start, value, key)
             else:
                 fr.pc = after
         return op
@@ -592,7 +601,9 @@ class OpCompiler(_FlowOps):
         src += (f"    except Exception:\n        return generic(fr, {pc})\n"
                 f"    motion = {'st.motion' if g is None else g}\n"
                 f"    if motion > 1 or state.modal_call is not None or "
-                f"state.feed_type not in (94, 971):\n        return generic(fr, {pc})\n")
+                f"state.feed_type not in (94, 971)"
+                + (" or st.diameter" if self.state.diameter_axis in axes else "") +
+                f":\n        return generic(fr, {pc})\n")
         if feed is not None:
             src += "    feed = mm_min_to_mm_s(fv * st.feed_scale)\n"
         if axes:

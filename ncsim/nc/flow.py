@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ncsim.nc import program as P
-from ncsim.nc.expr import Where, truthy
+from ncsim.nc.expr import FUNCTIONS, Where, truthy
 
 
 @dataclass(slots=True)
@@ -199,6 +199,21 @@ def _find_number(items: list, number: int, order, last: bool):
     return None
 
 
+def reads_state(e) -> bool:
+    """Whether the expression ``e`` reads anything the program can change: an R parameter, a
+    variable, a system variable (``WHILE 1`` reads nothing, so it decides nothing). A function
+    other than the arithmetic ones counts as reading."""
+    if isinstance(e, (P.Num, P.Str)) or e is None:
+        return False
+    if isinstance(e, P.Unary):
+        return reads_state(e.operand)
+    if isinstance(e, P.BinOp):
+        return reads_state(e.left) or reads_state(e.right)
+    if isinstance(e, P.Func) and e.name in FUNCTIONS:
+        return any(reads_state(a) for a in e.args)
+    return True
+
+
 def _col(expr) -> int:
     return getattr(expr, "col", 0)
 
@@ -212,6 +227,7 @@ class Flow:
     def __init__(self, state) -> None:
         self.state = state
         self.vars = state.vars
+        self._reads: dict[int, tuple] = {}    # id(condition) -> (condition, reads_state)
         self._handlers = {
             P.Goto: self._goto, P.IfGoto: self._if_goto, P.IfGotos: self._if_gotos,
             P.Case: self._case, P.RepeatSection: self._repeat_section, P.If: self._if,
@@ -228,17 +244,28 @@ class Flow:
         self._jump(ctx, s, here)
 
     def _if_goto(self, ctx, s: P.IfGoto, here: int) -> None:
-        if truthy(ctx.eval(s.cond)):
+        if truthy(self._decide(ctx, s.cond)):
             self._jump(ctx, s.goto, here)
 
     def _if_gotos(self, ctx, s: P.IfGotos, here: int) -> None:
         for jump in s.jumps:
-            if truthy(ctx.eval(jump.cond)):
+            if truthy(self._decide(ctx, jump.cond)):
                 self._jump(ctx, jump.goto, here)
                 return
 
+    def _decide(self, ctx, cond):
+        """The value of a condition that decides where the program goes, counted as a decision
+        (``InterpreterState.decisions``, what tells a loop that can end from one that cannot)
+        when it reads the program's state."""
+        hit = self._reads.get(id(cond))
+        if hit is None or hit[0] is not cond:
+            hit = self._reads[id(cond)] = (cond, reads_state(cond))
+        if hit[1]:
+            self.state.decisions += 1
+        return ctx.eval(cond)
+
     def _case(self, ctx, s: P.Case, here: int) -> None:
-        value = ctx.eval(s.expr)
+        value = self._decide(ctx, s.expr)
         for constant, goto in s.cases:
             if isinstance(constant, str) == isinstance(value, str) and constant == value:
                 self._jump(ctx, goto, here)
@@ -249,6 +276,7 @@ class Flow:
     def _repeat_section(self, ctx, s: P.RepeatSection, here: int) -> None:
         """REPEAT/REPEATB: run the section again while repetitions are left, then go on."""
         fr = ctx.frame
+        self.state.decisions += 1           # the repetitions left decide
         left = fr.repeats.get(here)
         if left is None:
             left = 1
@@ -300,16 +328,16 @@ class Flow:
         return start, end
 
     def _if(self, ctx, s: P.If, here: int) -> None:
-        if not truthy(ctx.eval(s.cond)):
+        if not truthy(self._decide(ctx, s.cond)):
             unit = ctx.frame.unit
             ctx.frame.pc = unit.else_of.get(here, unit.pairs[here]) + 1
 
     def _while(self, ctx, s: P.While, here: int) -> None:
-        if not truthy(ctx.eval(s.cond)):
+        if not truthy(self._decide(ctx, s.cond)):
             ctx.frame.pc = ctx.frame.unit.pairs[here] + 1
 
     def _until(self, ctx, s: P.Until, here: int) -> None:
-        if not truthy(ctx.eval(s.cond)):
+        if not truthy(self._decide(ctx, s.cond)):
             ctx.frame.pc = ctx.frame.unit.pairs[here] + 1
             self.state.jumped_back(ctx.file, ctx.line, s.col)
 
@@ -319,6 +347,7 @@ class Flow:
         end = ctx.number(s.end, "FOR")
         self.vars.assign(ctx, s.var, start)
         fr.for_end[here] = end
+        self.state.for_begins(fr, here, start)
         if start > end:
             fr.pc = fr.unit.pairs[here] + 1
 
@@ -342,7 +371,7 @@ class Flow:
             self.vars.assign(ctx, var, value)
             if value <= fr.for_end[start]:
                 fr.pc = start + 1
-                self.state.jumped_back(ctx.file, ctx.line, s.col)
+                self.state.for_jump_back(fr, start, value, (ctx.file, ctx.line, s.col))
         # ENDIF, REPEAT, LOOP: nothing to do
 
     def _define(self, ctx, s: P.Def, here: int) -> None:

@@ -44,10 +44,13 @@ block to it. ``interpret_text(..., fast=False)`` parses every line with Lark and
 fast path (``tests/test_fastpath.py`` and ``tests/test_fastops.py`` compare the two).
 
 Endless loops: the blocks executed are counted against a budget (``--block-budget``; by
-default the lines of the program files plus 2,000,000); the error names the jump back taken
-most often. A loop that returns to the same state at its jump (R parameters, variables,
-position, modal state: the interpreter is deterministic) is stopped there after 1024 passes
-(cycles of up to 64 passes are recognised).
+default the lines of the program files plus 2,000,000, the passes of FOR loops that advance
+their counter given back: a FOR loop is bounded); the error names the jump back taken most
+often. A loop whose passes decide nothing (between two takings of its jump back, in one call,
+no condition on the program's state is evaluated) is stopped at its second pass, however it
+moves; one that returns to the same state at its jump (R parameters, variables, position,
+modal state: the interpreter is deterministic) is stopped there after 1024 passes (cycles of
+up to 64 passes are recognised). See ``context.InterpreterState.count_jump``.
 
 The parts, each a small class holding the shared :class:`~ncsim.nc.context.InterpreterState`:
 
@@ -101,6 +104,7 @@ from ncsim.nc.context import (BlockContext, InterpreterState, InterpretOptions, 
 from ncsim.nc.expr import Where
 from ncsim.nc.fastops import OpCompiler
 from ncsim.nc.flow import Flow, split_units
+from ncsim.nc.macros import definition_macros
 from ncsim.nc.modal import COMPRESSOR_COMMANDS, DYNAMIC_COMMANDS
 from ncsim.nc.moves import Moves
 from ncsim.nc.parse import parse_text, read_program_text
@@ -165,7 +169,8 @@ def interpret_text(text: str, file: str = "<string>", machine: MachineSpec | Non
                                definitions=tuple(FsPath(d) for d in definitions),
                                block_budget=block_budget, fast=fast, skip_blocks=skip_blocks)
     interp = Interpreter(machine, options, setup_offsets, search_dir)
-    program = parse_text(text, file, fast=fast)
+    interp.state.macros = definition_macros(options.definitions)
+    program = parse_text(text, file, fast=fast, macros=interp.state.macros)
     try:
         return interp.run(program)
     finally:

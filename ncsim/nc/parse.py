@@ -28,8 +28,9 @@ from lark import Lark, Token, Transformer
 from lark.exceptions import (LarkError, UnexpectedCharacters, UnexpectedEOF, UnexpectedInput,
                              UnexpectedToken)
 
+from ncsim.config import read_bytes
 from ncsim.nc import program as P
-from ncsim.errors import NcError, NcSyntaxError
+from ncsim.errors import NcError, NcSyntaxError, shown
 
 # Words whose name is an 840D address (``X=..`` is a word, not a variable assignment).
 ADDRESSES = frozenset({
@@ -401,7 +402,7 @@ def _describe(token: Token) -> str:
     if token.type == "$END":
         return "end of block"
     kind = _TOKEN_NAMES.get(token.type)
-    return f"{kind} '{token}'" if kind else f"'{token}'"
+    return f"{kind} '{shown(str(token))}'" if kind else f"'{shown(str(token))}'"
 
 
 def _syntax_error(exc: UnexpectedInput, text: str, file: str, line: int) -> NcSyntaxError:
@@ -442,9 +443,13 @@ def normalize_newlines(text: str) -> str:
     return text.replace("\r\n", "\n").replace("\r", "\n") if "\r" in text else text
 
 
-def parse_text(text: str, file: str = "<string>", *, fast: bool = True) -> P.Program:
-    """Parse a whole program. ``fast`` reads plain lines with :mod:`ncsim.nc.fastparse`."""
-    text = normalize_newlines(text)
+def parse_text(text: str, file: str = "<string>", *, fast: bool = True,
+               macros: dict[str, str] | None = None) -> P.Program:
+    """Parse a whole program. ``fast`` reads plain lines with :mod:`ncsim.nc.fastparse`;
+    ``macros`` (of a definitions file) and the program's own DEFINEs are expanded first
+    (:mod:`ncsim.nc.macros`)."""
+    from ncsim.nc.macros import expand_macros
+    text, _ = expand_macros(normalize_newlines(text), file, macros, upper_code)
     if fast:
         from ncsim.nc.fastparse import scan_program
         return scan_program(text, file, parse_block)
@@ -456,12 +461,10 @@ def parse_text(text: str, file: str = "<string>", *, fast: bool = True) -> P.Pro
 
 
 def read_program_text(path: str | FsPath) -> str:
-    """The text of a program file: UTF-8, or Latin-1 (840D files often are) if not UTF-8."""
-    p = FsPath(path)
-    try:
-        data = p.read_bytes()
-    except OSError as exc:
-        raise NcError(f"cannot read program: {exc.strerror}", str(path), 0, 0) from None
+    """The text of a program file: UTF-8, or Latin-1 (840D files often are) if not UTF-8. A
+    path that is no regular file (a FIFO, a device) is refused before reading
+    (``config.read_bytes``)."""
+    data = read_bytes(path, "program", error=NcError)
     if data.startswith(codecs.BOM_UTF8):
         data = data[len(codecs.BOM_UTF8):]
     try:

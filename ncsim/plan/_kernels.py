@@ -53,37 +53,6 @@ def reach_gain_scalar(v0, distance, jerk, accel):
 
 
 @njit(cache=True)
-def knot_feeds(caps, section_length, section_jerk, section_accel):
-    """Backward then forward pass over knots: each knot's feed is at most its cap, at most
-    what one ramp brings down to the next knot's feed, at most what one ramp brings up
-    from the previous one (see ncsim.plan)."""
-    m = caps.shape[0]
-    v = caps.copy()
-    # a ramp never ends below its start (reach_gain_scalar >= 0), so a knot no higher than
-    # the one its ramp starts from keeps its feed without the ramp being solved
-    for i in range(m - 2, -1, -1):
-        if v[i] <= v[i + 1]:
-            continue
-        r = ramp_reach_scalar(v[i + 1], section_length[i], section_jerk[i], section_accel[i])
-        if r < v[i]:
-            v[i] = r
-    for i in range(m - 1):
-        if v[i + 1] <= v[i]:
-            continue
-        r = ramp_reach_scalar(v[i], section_length[i], section_jerk[i], section_accel[i])
-        if r < v[i + 1]:
-            v[i + 1] = r
-    return v
-
-
-def knot_feeds_array(caps, section_length, section_jerk, section_accel) -> np.ndarray:
-    return knot_feeds(np.ascontiguousarray(caps, dtype=np.float64),
-                      np.ascontiguousarray(section_length, dtype=np.float64),
-                      np.ascontiguousarray(section_jerk, dtype=np.float64),
-                      np.ascontiguousarray(section_accel, dtype=np.float64))
-
-
-@njit(cache=True)
 def ramp_time_scalar(dv, jerk, accel):
     """Scalar twin of :func:`ncsim.plan.ramps.ramp_time_s`."""
     dv = abs(dv)
@@ -117,14 +86,23 @@ def _rise_distance_slope(v_low, dv, jerk, accel):
 
 
 @njit(cache=True)
-def _peak_excess(va, vb, ga, gb, u2, length, jerk, accel):
-    return (_rise_distance(va, ga + u2, jerk, accel) + _rise_distance(vb, gb + u2, jerk, accel)
+def _peak_excess(va, vb, ga, gb, u2, length, ju, au, jd, ad):
+    return (_rise_distance(va, ga + u2, ju, au) + _rise_distance(vb, gb + u2, jd, ad)
             - length)
 
 
 @njit(cache=True)
 def peak_feed_scalar(va, vb, length, jerk, accel, cap):
-    """Scalar twin of :func:`ncsim.plan.ramps.peak_feed_mm_s` (generalised eq. 16).
+    """Scalar twin of :func:`ncsim.plan.ramps.peak_feed_mm_s` (generalised eq. 16): both
+    ramps with the same limits (:func:`peak_feed_pair`)."""
+    return peak_feed_pair(va, vb, length, jerk, accel, jerk, accel, cap)
+
+
+@njit(cache=True)
+def peak_feed_pair(va, vb, length, ju, au, jd, ad, cap):
+    """Generalised eq. 16 with the rising ramp under jerk ``ju`` and acceleration ``au`` and
+    the falling one under ``jd``, ``ad`` (each ramp takes the limits of the blocks it runs
+    through: ``ncsim.plan._sections``).
 
     Solved for u = sqrt(V - lo), lo = max(va, vb): the equation is smooth in u (in V it has a
     square-root end) and each ramp's distance is computed from its own feed change
@@ -134,26 +112,31 @@ def peak_feed_scalar(va, vb, length, jerk, accel, cap):
     if cap <= lo:
         return cap
     ga, gb = lo - va, lo - vb          # the ramps' feed change already due at V = lo
-    if math.isfinite(cap) and _peak_excess(va, vb, ga, gb, cap - lo, length, jerk, accel) <= 0.0:
+    if (math.isfinite(cap)
+            and _peak_excess(va, vb, ga, gb, cap - lo, length, ju, au, jd, ad) <= 0.0):
         return cap
-    if length <= 0.0 or _peak_excess(va, vb, ga, gb, 0.0, length, jerk, accel) >= 0.0:
+    if length <= 0.0 or _peak_excess(va, vb, ga, gb, 0.0, length, ju, au, jd, ad) >= 0.0:
         return lo
-    hi = cap - lo if math.isfinite(cap) else reach_gain_scalar(lo, length, jerk, accel)
+    # the weaker ramp's limits bound the start; the stronger ones bound the answer above
+    jw, aw = min(ju, jd), min(au, ad)
+    hi = (cap - lo if math.isfinite(cap)
+          else reach_gain_scalar(lo, length, max(ju, jd), max(au, ad)))
     u_lo, u_hi = 0.0, math.sqrt(max(hi, 0.0))
-    # start from the exact answer for equal end feeds: one ramp over half the free length
-    free = length - _rise_distance(min(va, vb), abs(va - vb), jerk, accel)
-    u = math.sqrt(reach_gain_scalar(lo, 0.5 * free, jerk, accel)) if free > 0.0 else u_hi
+    # start from the exact answer for equal end feeds and limits: one ramp over half the
+    # free length
+    free = length - (_rise_distance(va, ga, ju, au) + _rise_distance(vb, gb, jd, ad))
+    u = math.sqrt(reach_gain_scalar(lo, 0.5 * free, jw, aw)) if free > 0.0 else u_hi
     u = min(u, u_hi) if u > 0.0 else u_hi
     for _ in range(100):
-        f = _peak_excess(va, vb, ga, gb, u * u, length, jerk, accel)
+        f = _peak_excess(va, vb, ga, gb, u * u, length, ju, au, jd, ad)
         if abs(f) <= 1e-14 * length:
             break
         if f < 0.0:
             u_lo = u
         else:
             u_hi = u
-        slope = 2.0 * u * (_rise_distance_slope(va, ga + u * u, jerk, accel)
-                           + _rise_distance_slope(vb, gb + u * u, jerk, accel))
+        slope = 2.0 * u * (_rise_distance_slope(va, ga + u * u, ju, au)
+                           + _rise_distance_slope(vb, gb + u * u, jd, ad))
         nu = u - f / slope if slope > 0.0 and math.isfinite(slope) else 0.5 * (u_lo + u_hi)
         if not (u_lo < nu < u_hi):
             nu = 0.5 * (u_lo + u_hi)
@@ -161,7 +144,7 @@ def peak_feed_scalar(va, vb, length, jerk, accel, cap):
             u = nu
             break
         u = nu
-    if _peak_excess(va, vb, ga, gb, u * u, length, jerk, accel) > 1e-12 * max(length, 1e-300):
+    if _peak_excess(va, vb, ga, gb, u * u, length, ju, au, jd, ad) > 1e-12 * max(length, 1e-300):
         u = u_lo                       # never return a feed whose ramps do not fit
     return lo + u * u
 
@@ -172,36 +155,6 @@ def peak_feeds(va, vb, length, jerk, accel, cap):
     for i in range(va.shape[0]):
         out[i] = peak_feed_scalar(va[i], vb[i], length[i], jerk[i], accel[i], cap[i])
     return out
-
-
-@njit(cache=True)
-def peak_feeds_reusing(va, vb, length, jerk, accel, cap, knots, prev_knots, prev_v, prev_len,
-                       prev_jerk, prev_accel, prev_cap, prev_peak):
-    """:func:`peak_feeds` of the sections between ``knots``, taking the peak of the previous
-    knot set's (``prev_*``) where a section is the same -- the same two knots and the same
-    six inputs to the last bit, so the same result -- and solving eq. 16 for the others: the
-    knot sets of successive refinements differ in a few places."""
-    n = va.shape[0]
-    m = prev_peak.shape[0]
-    out = np.empty(n)
-    j = 0
-    for i in range(n):
-        while j < m and prev_knots[j] < knots[i]:
-            j += 1
-        if (j < m and prev_knots[j] == knots[i] and prev_knots[j + 1] == knots[i + 1]
-                and _same_bits(prev_v[j], va[i]) and _same_bits(prev_v[j + 1], vb[i])
-                and _same_bits(prev_len[j], length[i]) and _same_bits(prev_jerk[j], jerk[i])
-                and _same_bits(prev_accel[j], accel[i]) and _same_bits(prev_cap[j], cap[i])):
-            out[i] = prev_peak[j]
-        else:
-            out[i] = peak_feed_scalar(va[i], vb[i], length[i], jerk[i], accel[i], cap[i])
-    return out
-
-
-@njit(cache=True)
-def _same_bits(x, y):
-    """x and y are the same double (zeros of one sign; NaN never is)."""
-    return x == y and math.copysign(1.0, x) == math.copysign(1.0, y)
 
 
 @njit(cache=True)
@@ -235,12 +188,12 @@ def _emit_ramp(v_from, v_to, J, A, s, t, m, phase, limit, t0, s0, v0, a0, jj, ph
 
 
 @njit(cache=True)
-def _emit_section(va, vp, vb, length, J, A, s_start, dwell, reason_up, reason_down,
+def _emit_section(va, vp, vb, length, ju, au, jd, ad, s_start, dwell, reason_up, reason_down,
                   reason_steady, phase_a, phase_b, phase_c, phase_stop, limit_dwell, t, m,
                   t0, s0, v0, a0, jj, ph, lim, write):
     """The pieces of one section (knot feeds va, vb, peak vp) from time t and piece index m:
-    dwell at the start knot, ramp A (up to three pieces), steady B, ramp C. Returns the new
-    time and piece count."""
+    dwell at the start knot, ramp A (up to three pieces; jerk ``ju``, acceleration ``au``),
+    steady B, ramp C (``jd``, ``ad``). Returns the new time and piece count."""
     if dwell > 0.0:
         if write:
             t0[m], s0[m], v0[m], a0[m], jj[m] = t, s_start, 0.0, 0.0, 0.0
@@ -248,10 +201,10 @@ def _emit_section(va, vp, vb, length, J, A, s_start, dwell, reason_up, reason_do
         t += dwell
         m += 1
     # ramp A: v_a -> v_peak
-    t, m = _emit_ramp(va, vp, J, A, s_start, t, m, phase_a, reason_up,
+    t, m = _emit_ramp(va, vp, ju, au, s_start, t, m, phase_a, reason_up,
                       t0, s0, v0, a0, jj, ph, lim, write)
-    up = ramp_distance_scalar(va, vp, J, A)
-    down = ramp_distance_scalar(vp, vb, J, A)
+    up = ramp_distance_scalar(va, vp, ju, au)
+    down = ramp_distance_scalar(vp, vb, jd, ad)
     steady = length - up - down
     if steady > 0.0 and vp > 0.0:
         if write:
@@ -260,12 +213,12 @@ def _emit_section(va, vp, vb, length, J, A, s_start, dwell, reason_up, reason_do
         t += steady / vp
         m += 1
     # ramp C: v_peak -> v_b
-    return _emit_ramp(vp, vb, J, A, s_start + length - down, t, m, phase_c, reason_down,
+    return _emit_ramp(vp, vb, jd, ad, s_start + length - down, t, m, phase_c, reason_down,
                       t0, s0, v0, a0, jj, ph, lim, write)
 
 
 @njit(cache=True)
-def _emit_sections(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_dwell,
+def _emit_sections(v_knot, v_peak, sec_len, ramp_limits, sec_s0, start_dwell,
                    final_dwell, reason_up, reason_down, reason_steady,
                    phase_a, phase_b, phase_c, phase_stop, limit_dwell,
                    t0, s0, v0, a0, jj, ph, lim, sec_end_t, write):
@@ -275,8 +228,9 @@ def _emit_sections(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_d
     m = 0
     t = 0.0
     for i in range(n_sec):
-        t, m = _emit_section(v_knot[i], v_peak[i], v_knot[i + 1], sec_len[i], sec_jerk[i],
-                             sec_accel[i], sec_s0[i], start_dwell[i], reason_up[i],
+        t, m = _emit_section(v_knot[i], v_peak[i], v_knot[i + 1], sec_len[i],
+                             ramp_limits[i, 0], ramp_limits[i, 1], ramp_limits[i, 2],
+                             ramp_limits[i, 3], sec_s0[i], start_dwell[i], reason_up[i],
                              reason_down[i], reason_steady[i], phase_a, phase_b, phase_c,
                              phase_stop, limit_dwell, t, m, t0, s0, v0, a0, jj, ph, lim, write)
         if write:
@@ -292,7 +246,7 @@ def _emit_sections(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_d
 
 
 @njit(cache=True)
-def inner_junction_states(v_knot, v_peak, sec_len, sec_jerk, sec_accel, knots, s_junction):
+def inner_junction_states(v_knot, v_peak, sec_len, ramp_limits, knots, s_junction):
     """Feed and acceleration at every junction of a solved knot set without dwells, without
     materialising the pieces: the pieces of each section with inner junctions (at most seven)
     go to a small buffer, timed from the section's start, and its inner junctions are read
@@ -313,9 +267,10 @@ def inner_junction_states(v_knot, v_peak, sec_len, sec_jerk, sec_accel, knots, s
         v_j[knots[i]] = v_knot[i]
         if knots[i + 1] - knots[i] < 2:
             continue                      # no inner junction
-        t_end, m = _emit_section(v_knot[i], v_peak[i], v_knot[i + 1], sec_len[i], sec_jerk[i],
-                                 sec_accel[i], s_junction[knots[i]], 0.0, 0, 0, 0, 0, 1, 2, 3,
-                                 0, 0.0, 0, t0, s0, v0, a0, jj, ph, lim, True)
+        t_end, m = _emit_section(v_knot[i], v_peak[i], v_knot[i + 1], sec_len[i],
+                                 ramp_limits[i, 0], ramp_limits[i, 1], ramp_limits[i, 2],
+                                 ramp_limits[i, 3], s_junction[knots[i]], 0.0, 0, 0, 0, 0, 1,
+                                 2, 3, 0, 0.0, 0, t0, s0, v0, a0, jj, ph, lim, True)
         k = 0
         for j in range(knots[i] + 1, knots[i + 1]):
             target = s_junction[j]
@@ -336,7 +291,7 @@ def inner_junction_states(v_knot, v_peak, sec_len, sec_jerk, sec_accel, knots, s
 
 
 @njit(cache=True)
-def section_pieces(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_dwell,
+def section_pieces(v_knot, v_peak, sec_len, ramp_limits, sec_s0, start_dwell,
                    final_dwell, reason_up, reason_down, reason_steady,
                    phase_a, phase_b, phase_c, phase_stop, limit_dwell):
     """Constant-jerk pieces of every section: dwell at the start knot, ramp A (up to three
@@ -353,7 +308,7 @@ def section_pieces(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_d
     jj = np.empty(size)
     ph = np.empty(size, dtype=np.int8)
     lim = np.empty(size, dtype=np.int8)
-    m, t = _emit_sections(v_knot, v_peak, sec_len, sec_jerk, sec_accel, sec_s0, start_dwell,
+    m, t = _emit_sections(v_knot, v_peak, sec_len, ramp_limits, sec_s0, start_dwell,
                           final_dwell, reason_up, reason_down, reason_steady, phase_a, phase_b,
                           phase_c, phase_stop, limit_dwell, times, s0, v0, a0, jj, ph, lim,
                           sec_end_t, True)
@@ -410,6 +365,10 @@ def junction_states(piece_t, piece_s, piece_v, piece_a, piece_j, piece_phase, ph
             a_j[i] = 0.0
             ki += 1
             continue
+        leave = knot_time[ki - 1] + knot_dwell[ki - 1]   # junction 0 is a knot: ki >= 1
+        if m == 0:                                        # nothing moves anywhere
+            t_arr[i], v_j[i], a_j[i] = leave, knot_feed[ki - 1], 0.0
+            continue
         target = s_junction[i]
         # the last piece starting at or before the target, backing off standstill pieces
         while k + 1 < m and piece_s[k + 1] <= target:
@@ -420,7 +379,6 @@ def junction_states(piece_t, piece_s, piece_v, piece_a, piece_j, piece_phase, ph
         dt = piece_t[kk + 1] - piece_t[kk]
         tau = _piece_time(piece_s[kk], piece_v[kk], piece_a[kk], piece_j[kk], dt, target)
         t = piece_t[kk] + tau
-        leave = knot_time[ki - 1] + knot_dwell[ki - 1]   # junction 0 is a knot: ki >= 1
         if t <= leave:
             t_arr[i], v_j[i] = leave, knot_feed[ki - 1]
         elif t >= knot_time[ki]:                          # the last junction is a knot
@@ -509,9 +467,10 @@ def reach_array(v0, distance, jerk, accel):
 def removable_knots(peaks, caps, knot_caps, keep):
     """Which inner knots to remove (ncsim.plan.lookahead._refine_knots): walking along the path, a knot
     goes when the group of sections it joins keeps its highest peak at or below its lowest set
-    point (section set points and the removed knots' caps), so merging never slows a section
-    (a section that holds its set point merges too: a knot where the feed falls through a
-    rising set point is no zero-acceleration point of the law).
+    point (section set points and the removed knots' caps), so merging never slows a section:
+    a section steady at its set point merges with a neighbour of a higher set point that
+    never rises above it (the zero acceleration at the knot between them would only cost
+    time).
     ``knot_caps``/``keep`` are indexed by knot (0 and the last are never removed)."""
     n_sec = peaks.shape[0]
     remove = np.zeros(n_sec + 1, dtype=np.bool_)
@@ -520,7 +479,7 @@ def removable_knots(peaks, caps, knot_caps, keep):
     for i in range(1, n_sec):
         new_cap = min(group_cap, caps[i], knot_caps[i])
         new_peak = max(group_peak, peaks[i])
-        if not keep[i] and new_peak <= new_cap * (1.0 + 1e-9):
+        if not keep[i] and new_peak <= new_cap * (1.0 + 1e-12):
             remove[i] = True
             group_cap, group_peak = new_cap, new_peak
         else:
@@ -610,32 +569,37 @@ def knots_and_reasons(p, cap, cap_limit, jcap, jlimit, rel, none_code, end_code)
 @njit(cache=True)
 def section_minima(knots, p, cap, jerk, accel, s_junction):
     """Per section (blocks knots[i]..knots[i+1]-1): its length, least jerk and acceleration
-    of its blocks, its set point -- the least set point of its blocks and crossing cap of its
-    inner junctions -- and where that comes from: the first block holding the least set
-    point, or -(b + 2) for the end junction of block b when an inner junction's cap is
-    lower."""
+    of its blocks, whether all its blocks share them (``uniform``), its set point -- the
+    least set point of its blocks and crossing cap of its inner junctions -- and where that
+    comes from: the first block holding the least set point, or -(b + 2) for the end
+    junction of block b when an inner junction's cap is lower."""
     ns = knots.shape[0] - 1
     sec_len = np.empty(ns)
     sec_jerk = np.empty(ns)
     sec_accel = np.empty(ns)
     sec_cap = np.empty(ns)
+    uniform = np.empty(ns, dtype=np.bool_)
     cap_from = np.empty(ns, dtype=np.int64)
     for i in range(ns):
         a, b = knots[i], knots[i + 1]
         jm, am, bm, fb = jerk[a], accel[a], cap[a], a
+        jx, ax = jerk[a], accel[a]
         jn, fj = math.inf, a
         for blk in range(a, b):
             jm = min(jm, jerk[blk])
             am = min(am, accel[blk])
+            jx = max(jx, jerk[blk])
+            ax = max(ax, accel[blk])
             if cap[blk] < bm:
                 bm, fb = cap[blk], blk
             if blk + 1 < b and p[blk + 1] < jn:
                 jn, fj = p[blk + 1], blk
         sec_len[i] = s_junction[b] - s_junction[a]
         sec_jerk[i], sec_accel[i] = jm, am
+        uniform[i] = jx == jm and ax == am
         sec_cap[i] = math.nan if bm != bm or jn != jn else min(bm, jn)   # np.minimum
         cap_from[i] = -(fj + 2) if jn < bm else fb
-    return sec_len, sec_jerk, sec_accel, sec_cap, cap_from
+    return sec_len, sec_jerk, sec_accel, uniform, sec_cap, cap_from
 
 
 @njit(cache=True)
@@ -683,27 +647,3 @@ def unstoppable_junctions(v_j, a_j, knots, sec_jerk, sec_accel, s_junction, look
             bad[m], sec_of[m], room_of[m] = i, sec, room
             m += 1
     return bad[:m].copy(), sec_of[:m].copy(), room_of[:m].copy()
-
-
-@njit(cache=True)
-def block_section_values(knots, sec_jerk, sec_accel, v_knot, v_peak, sec_len, s_junction, v_j):
-    """Per block: its section's jerk and acceleration, and the highest feed inside it -- its
-    end feeds, or the section's peak if the peak (or the steady phase) lies in the block."""
-    n = s_junction.shape[0] - 1
-    jerk = np.empty(n)
-    accel = np.empty(n)
-    feed_max = np.empty(n)
-    for i in range(knots.shape[0] - 1):
-        a, b = knots[i], knots[i + 1]
-        J, A = sec_jerk[i], sec_accel[i]
-        s0 = s_junction[a]
-        peak_from = s0 + ramp_distance_scalar(v_knot[i], v_peak[i], J, A)
-        peak_to = s0 + sec_len[i] - ramp_distance_scalar(v_peak[i], v_knot[i + 1], J, A)
-        for blk in range(a, b):
-            jerk[blk] = J
-            accel[blk] = A
-            f = max(v_j[blk], v_j[blk + 1])
-            if s_junction[blk] <= peak_to + 1e-9 and s_junction[blk + 1] >= peak_from - 1e-9:
-                f = max(f, v_peak[i])
-            feed_max[blk] = f
-    return jerk, accel, feed_max

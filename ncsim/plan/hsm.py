@@ -36,6 +36,10 @@ programmed geometry cannot say:
 * the look-ahead counts NC blocks: the rows of one polynomial block share ``nc_block``.
 
 Without compressor and rounding modes the path and the limits are returned unchanged.
+
+Technology groups (``Path.dyn_group``): a compressed block's closed forms take its group's axis
+limits; the rounding takes those of the group of the rounded blocks when they share one (one
+CYCLE832 for the whole contour), else the [axes] values (:func:`_rounding_machine`).
 """
 from __future__ import annotations
 
@@ -124,7 +128,8 @@ class Prepared:
         rows = row_of[old]
         path = self.path
         u = line_directions(path)[rows]
-        curve = curve_candidates(c, old, u, path.length_mm[rows], machine, options)
+        groups = path.dyn_group[rows]
+        curve = curve_candidates(c, old, u, path.length_mm[rows], groups, machine, options)
         for key, _ in _CANDIDATES:
             if key in curve:
                 cand[key][rows] = curve[key]
@@ -137,8 +142,8 @@ class Prepared:
         cap[rows] = value
         cap_limit[rows] = limit
         normal_accel = value * value * c.curvature_1_mm[old]
-        available = kin.tangential_accel_available_mm_s2(u, c.normal[old], normal_accel,
-                                                         machine.max_accel_mm_s2)
+        _, max_accel, _ = _group_axis_rows(machine, groups)
+        available = kin.tangential_accel_available_mm_s2(u, c.normal[old], normal_accel, max_accel)
         accel[rows] = np.minimum(accel[rows], np.maximum(available, 1e-9 * accel[rows]))
         joined = np.nonzero(c.joined)[0]
         junction_of = np.append(row_of, path.n)
@@ -146,10 +151,11 @@ class Prepared:
         jlimit[junction_of[joined]] = Limit.NONE
 
 
-def curve_candidates(c: Compression, old, u, length_mm, machine: MachineSpec,
+def curve_candidates(c: Compression, old, u, length_mm, groups, machine: MachineSpec,
                      options: ModelOptions) -> dict[str, np.ndarray]:
     """What the fitted curve of the compressed blocks ``old`` (rows of the programmed path;
-    ``u`` their directions, ``length_mm`` their lengths) puts in eq. 12 (module docstring):
+    ``u`` their directions, ``length_mm`` their lengths, ``groups`` their technology groups,
+    ``Path.dyn_group``) puts in eq. 12 (module docstring):
     ``programmed`` (the polynomial block's F, FNORM), ``cycle_time`` (eq. 6 on the polynomial
     block), ``ncu_path_jerk`` (eq. 11), ``axis_jerk`` (eq. 4/9), ``axis_accel`` (eq. 2/8) on
     the fitted curvature, and ``transition``: its curvature change over the block crossed as
@@ -164,14 +170,14 @@ def curve_candidates(c: Compression, old, u, length_mm, machine: MachineSpec,
         out["cycle_time"] = kin.cycle_time_feed_limit_mm_s(c.group_length_mm[old], ncu.ipo_cycle_s)
     if options.ncu_path_jerk:
         out["ncu_path_jerk"] = kin.ncu_path_jerk_feed_limit_mm_s(ncu.tangential_jerk_mm_s3, radius)
-    j_t = kin.axis_tangential_jerk_limit_mm_s3(u, machine.max_jerk_mm_s3)
+    _, max_accel, max_jerk = _group_axis_rows(machine, groups)
+    j_t = kin.axis_tangential_jerk_limit_mm_s3(u, max_jerk)
     if options.axis_jerk_setpoint:
         # as on the paper's arcs, where the set point is taken where the axes carry J_tcurv
         # (alpha_c, §5.2.4: R 30 holds 10.53 m/min above the least V_Jt of 9.9)
         j_set = np.maximum(j_t, ncu.tangential_jerk_mm_s3) if options.ncu_path_jerk else j_t
         out["axis_jerk"] = kin.tangential_jerk_feed_limit_mm_s(j_set, radius)
-    a_n = ncu.normal_accel_share * kin.axis_normal_accel_limit_mm_s2(c.normal[old],
-                                                                      machine.max_accel_mm_s2)
+    a_n = ncu.normal_accel_share * kin.axis_normal_accel_limit_mm_s2(c.normal[old], max_accel)
     out["axis_accel"] = kin.normal_accel_feed_limit_mm_s(radius, a_n)
     if options.transition_crossing:
         out["transition"] = kin.curvature_change_feed_mm_s(
@@ -190,12 +196,13 @@ def _slower_junctions(c: Compression, path: Path, machine: MachineSpec, options:
     ncu = machine.ncu
     old = np.nonzero(c.in_run if blocks is None else c.in_run & blocks)[0]
     u = line_directions(path)[old]
-    curve = curve_candidates(c, old, u, path.length_mm[old], machine, options)
+    groups = path.dyn_group[old]
+    curve = curve_candidates(c, old, u, path.length_mm[old], groups, machine, options)
     v_curve = np.minimum.reduce([curve[key] for key in
                                  ("ncu_path_jerk", "axis_jerk", "axis_accel", "transition")])
     v_programmed = np.minimum(
         kin.overridden_feed_mm_s(path.feed_mm_s[old], ncu.feed_override),
-        kin.axis_velocity_feed_limit_mm_s(u, machine.max_velocity_mm_s))
+        kin.axis_velocity_feed_limit_mm_s(u, _group_axis_rows(machine, groups)[0]))
     if options.cycle_time_limit:
         v_programmed = np.minimum(v_programmed, kin.cycle_time_feed_limit_mm_s(
             path.length_mm[old], ncu.ipo_cycle_s))
@@ -206,6 +213,21 @@ def _slower_junctions(c: Compression, path: Path, machine: MachineSpec, options:
         k_end = np.where(c.joined[slow + 1], c.junction_curvature_1_mm[slow + 1], -1.0)
         kept[np.where(k_end > k_start, slow + 1, slow)] = True
     return kept
+
+
+def _group_axis_rows(machine: MachineSpec, groups: np.ndarray):
+    """(velocity, accel, jerk), each (rows, 3): the axis limits of each row's technology group
+    (``Path.dyn_group``, ``machine.TECHNOLOGY_GROUPS``), for the vectorised kinematics."""
+    table = machine.group_limits()[np.asarray(groups, dtype=np.intp)]
+    return table[:, 0], table[:, 1], table[:, 2]
+
+
+def _rounding_machine(path: Path, machine: MachineSpec) -> MachineSpec:
+    """The machine the corner rounding works with: the technology group of the blocks in a
+    rounding mode (G641-G645) when they share one (as after one CYCLE832), else DYNNORM's
+    [axes] (the rounding of a path that changes group between rounded corners uses those)."""
+    groups = np.unique(path.dyn_group[np.isin(path.cp_mode, (641, 642, 643, 644, 645))])
+    return machine.for_group(int(groups[0])) if len(groups) == 1 else machine
 
 
 def prepare(path: Path, machine: MachineSpec, options: ModelOptions) -> Prepared:
@@ -227,6 +249,6 @@ def prepare(path: Path, machine: MachineSpec, options: ModelOptions) -> Prepared
                         | np.any(compression.kappa_end != before.kappa_end, axis=1))
     smooth = (compression.joined if compression is not None
               else np.zeros(path.n + 1, dtype=bool))
-    rounding = round_corners(path, machine, options, smooth)
+    rounding = round_corners(path, _rounding_machine(path, machine), options, smooth)
     return Prepared(path=rounding.path if rounding is not None else path,
                     compression=compression, rounding=rounding)

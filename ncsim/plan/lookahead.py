@@ -20,21 +20,27 @@ on *sections*:
   happens there: start/end of the program, a stop, a junction cap below the adjacent set
   points (corner, curvature jump, look-ahead), or a change of set point between the blocks;
 * the blocks between two consecutive knots form a **section**: its set point ``V_st`` is the
-  lowest set point of its blocks and crossing cap of its inner junctions, and it uses the
-  lowest jerk and acceleration of its blocks;
+  lowest set point of its blocks and crossing cap of its inner junctions;
 * on a section the law is exactly the paper's: A from the start knot's feed, B at ``V_st``
   if the section is long enough, C to the end knot's feed, eq. 16 otherwise. A paper arc is
   its own section, so the paper's per-block law is reproduced unchanged;
-* knots that turn out not to limit anything (the feed stays below the caps on both sides)
-  are removed and their sections merged, in groups that never lower a section's set point
-  below its peak (``_refine_knots``): ramps then run across short blocks as on a real NC.
+* each ramp runs under the jerk and acceleration of the blocks it crosses, not the least of
+  the section (``_sections``): a line entered tangentially from an arc brakes with the
+  line's own acceleration when its ramp C lies in the line; a ramp across blocks of
+  different limits takes the least of those it crosses;
+* knots that turn out not to limit anything (the feed stays at or below the caps on both
+  sides) are removed and their sections merged, in groups that never lower a section's set
+  point below its peak (``_refine_knots``): ramps then run across short blocks as on a real
+  NC, and a section steady at its set point runs on into a block of a higher set point that
+  it cannot rise in (no zero-acceleration stop at the change of set point).
 
 Knot feeds come from the classic two passes (grbl's planner, in ramp form): backward, each
 knot's feed is at most what one ramp can bring down to the next knot's feed over the
-section (``ramps.ramp_reach_mm_s``); forward, at most what one ramp can bring up from the
-previous knot. One backward then one forward pass reach the fixed point (a forward
-reduction never breaks a backward condition, since a raised ramp end only helps a fall).
-The passes are a sequential recurrence, compiled (``_kernels.knot_feeds``).
+section (``ramps.ramp_reach_mm_s``, under the limits of the blocks the ramp crosses);
+forward, at most what one ramp can bring up from the previous knot. One backward then one
+forward pass reach the fixed point (a forward reduction never breaks a backward condition,
+since a raised ramp end only helps a fall). The passes are a sequential recurrence, compiled
+(``_sections.knot_feeds_cover``).
 
 Look-ahead (840D "dynamic look-ahead", paper §3.2): while a block runs, the NC knows only
 ``lookahead_blocks`` blocks ahead and must be able to stop at the end of the last one (NC
@@ -50,21 +56,22 @@ profiles).
 
 Why this is never faster than the limits allow: every knot feed respects its cap; a section's
 set point is at most every cap inside it and the feed never exceeds it; every ramp has
-|j| <= J and |a| <= A of its section, the smallest of its blocks. ``tests/test_plan.py``
+|j| <= J and |a| <= A of every block it runs through. ``tests/test_plan.py``
 checks these invariants on random paths, ``tests/test_plan_reference.py`` checks the whole
 construction against a plain scalar reference implementation.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
-from ncsim.plan._kernels import (block_section_values, creep_caps, inner_junction_states,
-                                 junction_states,
-                                 knot_feeds_array, knots_and_reasons, lookahead_caps, peak_feeds,
-                                 peak_feeds_reusing,
-                                 reach_array,
+from ncsim.plan._kernels import (creep_caps, inner_junction_states, junction_states,
+                                 knots_and_reasons, lookahead_caps, reach_array,
                                  removable_knots, section_minima, section_pieces,
                                  unstoppable_junctions)
+from ncsim.plan._sections import (block_section_values, knot_feeds_cover, peak_feeds_cover,
+                                  peak_feeds_cover_reusing)
 from ncsim.machine import MachineSpec
 from ncsim.motion import FULL_MODEL, Limit, ModelOptions, Motion, Phase
 from ncsim.path import Path
@@ -126,14 +133,16 @@ def plan(path: Path, machine: MachineSpec, options: ModelOptions = FULL_MODEL, *
     if depth is not None:
         # junction k is crossed while block k-1 runs: blocks up to k-1+D are prepared
         lookahead_end = _prepared_end(n, depth, nc_block)
-    sol, p = _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end)
+    blocks = _Blocks(np.ascontiguousarray(jerk), np.ascontiguousarray(accel), length,
+                     s_junction)
+    sol, p = _refine_knots(knots, p, cap, blocks, keep, lookahead_end)
     del p, keep, lookahead_end
     knots = sol["knots"]
     pieces, t_arrive, v_j, a_j = _pieces_and_junctions(sol, s_junction, knot_reason,
                                                        cap_limit, jlimit, dwell)
     sec_jerk, sec_accel, feed_max = block_section_values(
-        knots, sol["sec_jerk"], sol["sec_accel"], sol["v_knot"], sol["v_peak"], sol["sec_len"],
-        s_junction, v_j)
+        knots, sol["ramp_limits"], sol["v_knot"], sol["v_peak"], sol["sec_len"],
+        s_junction, v_j, blocks.jerk, blocks.accel)
     t_end = t_arrive[1:]
     # without dwells a block starts when the previous one ends: share the arrival times
     t_start = t_arrive[:-1] + dwell[:-1] if np.any(dwell[:-1] > 0.0) else t_arrive[:-1]
@@ -261,46 +270,63 @@ def _find_knots(p, cap, cap_limit, jcap, jlimit):
                              int(Limit.PROGRAM_END))
 
 
-def _solve_knots(knots, p, cap, jerk, accel, s_junction, prev=None):
+class _Blocks(NamedTuple):
+    """Per block: path jerk and acceleration (its own limits), length; per junction: path
+    length from the start. What the section kernels read."""
+
+    jerk: np.ndarray
+    accel: np.ndarray
+    length: np.ndarray
+    s_junction: np.ndarray
+
+
+def _solve_knots(knots, p, cap, blocks: _Blocks, prev=None):
     """Section limits, knot feeds (both passes) and section peaks (eq. 16) for a knot set.
 
     A section's set point is the lowest set point of its blocks and crossing cap of its
     inner junctions, so its law can exceed neither. ``sec_cap_from`` says where it comes
     from: the first block holding the lowest set point (>= 0), or -(b + 2) for the end
     junction of block b when an inner junction holds a lower cap (``_kernels.section_minima``).
-    ``prev``, the solution of a knot set before, lends the peaks of the sections that did not
-    change (``_kernels.peak_feeds_reusing``).
+    Every ramp runs under the limits of the blocks it crosses (``_sections``): the knot
+    passes and the peaks walk the blocks of the sections whose blocks' limits differ;
+    ``ramp_limits`` holds each section's ramp A and C limits. ``sec_jerk``/``sec_accel``, the
+    least of each section, bound the look-ahead's stops. ``prev``, the solution of a knot
+    set before, lends the peaks of the sections that did not change.
     """
-    sec_len, sec_jerk, sec_accel, sec_cap, cap_from = section_minima(
+    jerk, accel, length, s_junction = blocks
+    sec_len, sec_jerk, sec_accel, uniform, sec_cap, cap_from = section_minima(
         knots, p, cap, jerk, accel, s_junction)
+    knots64 = np.ascontiguousarray(knots, dtype=np.int64)
     w = p[knots]                            # a knot is also in its sections' set points
     w[:-1] = np.minimum(w[:-1], sec_cap)
     w[1:] = np.minimum(w[1:], sec_cap)
-    v_knot = knot_feeds_array(w, sec_len, sec_jerk, sec_accel)
+    v_knot = knot_feeds_cover(w, knots64, uniform, sec_len, sec_jerk, sec_accel, jerk, accel,
+                              length, s_junction)
     if prev is None:
-        v_peak = peak_feeds(v_knot[:-1], v_knot[1:], sec_len, sec_jerk, sec_accel, sec_cap)
+        v_peak, ramp_limits = peak_feeds_cover(v_knot, knots64, uniform, sec_len, sec_jerk,
+                                               sec_accel, sec_cap, jerk, accel, length,
+                                               s_junction)
     else:
-        v_peak = peak_feeds_reusing(
-            v_knot[:-1], v_knot[1:], sec_len, sec_jerk, sec_accel, sec_cap,
-            np.ascontiguousarray(knots, dtype=np.int64),
-            np.ascontiguousarray(prev["knots"], dtype=np.int64), prev["v_knot"],
-            prev["sec_len"], prev["sec_jerk"], prev["sec_accel"], prev["sec_cap"],
-            prev["v_peak"])
+        v_peak, ramp_limits = peak_feeds_cover_reusing(
+            v_knot, knots64, uniform, sec_len, sec_jerk, sec_accel, sec_cap, jerk, accel,
+            length, s_junction, np.ascontiguousarray(prev["knots"], dtype=np.int64),
+            prev["v_knot"], prev["sec_cap"], prev["v_peak"], prev["ramp_limits"])
     return dict(knots=knots, sec_len=sec_len, sec_jerk=sec_jerk, sec_accel=sec_accel,
-                sec_cap=sec_cap, v_knot=v_knot, v_peak=v_peak, sec_cap_from=cap_from)
+                sec_cap=sec_cap, v_knot=v_knot, v_peak=v_peak, ramp_limits=ramp_limits,
+                sec_cap_from=cap_from)
 
 
-def _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end,
-                  max_rounds=8):
+def _refine_knots(knots, p, cap, blocks: _Blocks, keep, lookahead_end, max_rounds=8):
     """Drop knots that do not limit anything, so that ramps run across them.
 
     The first knot set marks every junction that *might* limit the feed. A knot where the
-    sections it joins stay below the lower of their set points and of its own crossing cap
-    is only a zero-acceleration stop in the middle of a ramp: it is removed and the sections
-    merge (set point, jerk and acceleration = the smallest ones, the removed junction's cap
-    included), which keeps every cap. Removal walks along the path in groups
-    (``_kernels.removable_knots``): a group grows only while its highest peak stays at or below its
-    lowest set point, so a merge never lowers the set point under a section's peak.
+    sections it joins stay at or below the lower of their set points and of its own crossing
+    cap is only a zero-acceleration stop in the middle of a ramp: it is removed and the
+    sections merge (set point = the smallest, the removed junction's cap included; each ramp
+    still under the limits of the blocks it crosses), which keeps every cap. Removal walks
+    along the path in groups (``_kernels.removable_knots``): a group grows only while its
+    highest peak stays at or below its lowest set point, so a merge never lowers the set
+    point under a section's peak.
 
     One condition is on the state, not the feed: with a finite look-ahead the tool must be
     able to stop, from its feed *and acceleration* at junction k, before ``lookahead_end[k]``
@@ -308,7 +334,7 @@ def _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end,
     A junction passed while still accelerating may fail that although its feed is below the
     cap; it becomes a knot for good (at a knot the acceleration is zero and the cap suffices).
     """
-    sol = _solve_knots(knots, p, cap, jerk, accel, s_junction)
+    sol = _solve_knots(knots, p, cap, blocks)
     for _ in range(max_rounds):
         k = sol["knots"]
         inner = np.arange(1, len(k) - 1)
@@ -317,13 +343,13 @@ def _refine_knots(knots, p, cap, jerk, accel, s_junction, keep, lookahead_end,
         remove = removable_knots(sol["v_peak"], sol["sec_cap"], p[k], keep[k])
         if not np.any(remove):
             break
-        sol = _solve_knots(k[~remove], p, cap, jerk, accel, s_junction, prev=sol)
+        sol = _solve_knots(k[~remove], p, cap, blocks, prev=sol)
     if lookahead_end is not None:
-        sol, p = _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end)
+        sol, p = _pin_unstoppable(sol, p, cap, blocks, keep, lookahead_end)
     return sol, p
 
 
-def _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end, rounds=8):
+def _pin_unstoppable(sol, p, cap, blocks: _Blocks, keep, lookahead_end, rounds=8):
     """Bring every junction state inside the look-ahead's braking room.
 
     The critical state on a ramp towards V is where its last -J piece begins: stopping from
@@ -333,9 +359,11 @@ def _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end, 
     as a creep (``_kernels.creep_caps``): ramps to the highest approach feed that passes, each
     ending at a new knot, then the next (smaller) step, until within ``CREEP_TOL`` of the set
     point, where the feed holds -- as an NC re-planning at every new block edges up to the
-    braking-limited feed. Repeats until no junction fails. Lowers ``p`` and sets ``keep`` in
-    place.
+    braking-limited feed. Repeats until no junction fails. The stops and the creep assume the
+    least limits of the section (a stop may run through any of its blocks). Lowers ``p`` and
+    sets ``keep`` in place.
     """
+    s_junction = blocks.s_junction
     for _ in range(rounds):
         knots = sol["knots"]
         v_j, a_j = _inner_states(sol, s_junction)
@@ -354,15 +382,15 @@ def _pin_unstoppable(sol, p, cap, jerk, accel, s_junction, keep, lookahead_end, 
                    sec_room[sections], sol["sec_jerk"][sections], sol["sec_accel"][sections],
                    sol["sec_cap"][sections], CREEP_TOL)
         new_knots = np.union1d(knots, np.nonzero(keep)[0])
-        sol = _solve_knots(new_knots, p, cap, jerk, accel, s_junction, prev=sol)
+        sol = _solve_knots(new_knots, p, cap, blocks, prev=sol)
     return sol, p
 
 
 def _inner_states(sol, s_junction):
     """Feed and acceleration at every junction for a solved knot set (without building the
     pieces: ``_kernels.inner_junction_states``)."""
-    return inner_junction_states(sol["v_knot"], sol["v_peak"], sol["sec_len"], sol["sec_jerk"],
-                                 sol["sec_accel"], sol["knots"].astype(np.int64), s_junction)
+    return inner_junction_states(sol["v_knot"], sol["v_peak"], sol["sec_len"],
+                                 sol["ramp_limits"], sol["knots"].astype(np.int64), s_junction)
 
 
 def stopping_distance_mm(v_mm_s, a_mm_s2, jerk_mm_s3, accel_mm_s2):
@@ -405,7 +433,7 @@ def _pieces_and_junctions(sol, s_junction, knot_reason, cap_limit, junction_limi
     steady_reason = np.where(src >= 0, cap_limit[np.maximum(src, 0)],
                              junction_limit[np.maximum(-src - 1, 0)]).astype(np.int8)
     times, s0, v0, a0, jj, ph, lim, sec_end_t = section_pieces(
-        sol["v_knot"], sol["v_peak"], sol["sec_len"], sol["sec_jerk"], sol["sec_accel"],
+        sol["v_knot"], sol["v_peak"], sol["sec_len"], sol["ramp_limits"],
         s_junction[knots[:-1]], dwell[knots[:-1]], float(dwell[knots[-1]]),
         knot_reason[knots[:-1]], knot_reason[knots[1:]], steady_reason,
         int(Phase.A), int(Phase.B), int(Phase.C), int(Phase.STOP), int(Limit.DWELL))

@@ -2,7 +2,8 @@
 
 The *ideal* time of a block is its length at its reference speed: the programmed feed F for a
 feed move (G1/G2/G3), the rapid traverse speed for a rapid (G0: ``min_i V_mi / |u_i|`` along
-its direction, paper eq. 7). Everything above that is *lost*::
+its direction, paper eq. 7), each times the override the machine file holds (what the
+operator panel was set to). Everything above that is *lost*::
 
     cycle time = ideal time + time lost + programmed dwell (G4)
 
@@ -16,8 +17,10 @@ and every lost second goes to one cause, a ``motion.Limit`` label:
   ramps between two different programmed feeds;
 * standing still, the exact-stop settle (the G601/G602 window must be reached before the
   block change: 840D Function Manual Basic Functions, B1 "Continuous-path mode, exact stop
-  and LookAhead") is lost to ``exact_stop`` and charged to the block that ends there; a G4
-  dwell is programmed time, not a loss.
+  and LookAhead") is lost to ``exact_stop`` and charged to the block that ends there: the
+  settle of a G60/G9 block's own window, and that of the window MD20552
+  ``$MC_EXACT_POS_MODE_G0_TO_G1`` sets at a G0/G1 change (B1 "exact stop at G0-G1 change");
+  a G4 dwell is programmed time, not a loss.
 
 Pieces and blocks are merged in one pass (both are ordered in time), so a piece that spans
 several short blocks is split at the block ends: the per-block sums are exact and linear in
@@ -34,7 +37,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ncsim.motion import LIMIT_LABELS, Limit, Phase
-from ncsim.plan.kinematics import axis_velocity_feed_limit_mm_s
+from ncsim.plan.kinematics import (axis_velocity_feed_limit_mm_s, overridden_feed_mm_s,
+                                   rapid_feed_mm_s)
 from ncsim.report.tally import block_losses
 
 N_CAUSES = len(LIMIT_LABELS)
@@ -69,18 +73,22 @@ class Losses:
 
 def reference_feed_mm_s(motion) -> np.ndarray:
     """The speed each block would run at with nothing in the way: F for a feed move, the
-    rapid traverse speed ``min_i V_mi / |u_i|`` (eq. 7) of the line for a G0 block."""
+    rapid traverse speed ``min_i V_mi / |u_i|`` (eq. 7) of the line for a G0 block, each
+    times the override the machine file holds (``ncu.feed_override``; ``ncu.rapid_override``
+    below 100 %, a rapid never runs above its traverse speed): the speed the NC is asked for,
+    as ``plan.limits`` takes it (``kinematics.overridden_feed_mm_s``, ``rapid_feed_mm_s``)."""
     path = motion.path
-    ref = np.asarray(path.feed_mm_s, dtype=np.float64).copy()
+    ncu = motion.machine.ncu
+    ref = overridden_feed_mm_s(path.feed_mm_s, ncu.feed_override)
     rapid = np.asarray(path.rapid, dtype=bool)
     if rapid.any():
         chord = path.end_mm[rapid] - path.start_mm[rapid]
         norm = np.linalg.norm(chord, axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
             u = np.where(norm[:, None] > 0, chord / norm[:, None], 0.0)
-        v_t = axis_velocity_feed_limit_mm_s(u, motion.machine.max_velocity_mm_s)
-        # a rapid never runs above its traverse speed; the set point is the fallback for a
-        # zero-length move (no direction)
+        v_t = rapid_feed_mm_s(axis_velocity_feed_limit_mm_s(u, motion.machine.max_velocity_mm_s),
+                              min(ncu.rapid_override, 1.0))
+        # the set point is the fallback for a zero-length move (no direction)
         ref[rapid] = np.where(np.isfinite(v_t) & (v_t > 0), v_t, motion.cap_mm_s[rapid])
     return ref
 
@@ -91,7 +99,8 @@ def _f8(a) -> np.ndarray:
 
 def settle_s(motion) -> np.ndarray:
     """Exact-stop settle at the end of each block: the junction's standstill minus the G4
-    dwell programmed there (``limits.path_limits`` adds the two)."""
+    dwell programmed there (``limits.path_limits`` adds the two; the settle is the block's own
+    G60/G9 window or the MD20552 window of a G0/G1 change, all of it lost to ``exact_stop``)."""
     path = motion.path
     n = path.n
     dwell = np.asarray(motion.junction_dwell_s, dtype=np.float64)
@@ -100,7 +109,6 @@ def settle_s(motion) -> np.ndarray:
         np.subtract(dwell[1:n], path.dwell_before_s[1:], out=settle[:n - 1])
         settle[n - 1] = dwell[n] - path.end_dwell_s
         np.maximum(settle, 0.0, out=settle)
-        np.copyto(settle, 0.0, where=~np.asarray(path.exact_stop, dtype=bool))
     return settle
 
 

@@ -5,8 +5,9 @@ renders it for a terminal. Both work from the planned motion alone (no sampling)
 
 Definitions (all over the moving time, standstills excluded unless said otherwise):
 
-* ``feed_efficiency``: ideal time at the programmed feeds over the real time, on feed moves
-  (G1/G2/G3): 1.0 would mean the programmed feed held everywhere, ramps included.
+* ``feed_efficiency``: ideal time at the programmed feeds (times the feed override the machine
+  file holds) over the real time, on feed moves (G1/G2/G3): 1.0 would mean the programmed
+  feed held everywhere, ramps included.
 * ``limited_fraction``: share of the feed-move time during which something other than the
   programmed feed holds the feed (ramps included).
 * ``time_by_limit_s``: time during which each limit holds the feed (``motion.Limit`` labels);
@@ -159,7 +160,7 @@ def summary(sim, *, top: int = 10, include_blocks: bool = True) -> dict:
     dur = motion.duration_s if path.n else np.zeros(0)
     feed_moves = ~path.rapid & (path.length_mm > 0) if path.n else np.zeros(0, bool)
     feed_time = float(dur[feed_moves].sum()) if path.n else 0.0
-    ideal = float((path.length_mm[feed_moves] / path.feed_mm_s[feed_moves]).sum()) if path.n else 0.0
+    ideal = float(loss.ideal_s[feed_moves].sum()) if path.n else 0.0
     limited = sum(v for k, v in tbl["feed"].items() if k != Limit.PROGRAMMED.label)
     files = path.files
     order = top_order(loss.lost_s, path.rapid, False, top)

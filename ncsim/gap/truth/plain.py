@@ -243,12 +243,25 @@ def junction_speeds(path: Path, vmax, accel, jerk, cap) -> np.ndarray:
 
 def plan_plain(path: Path, machine: PlainMachine) -> PlainMotion:
     """Plan ``path`` (module docstring)."""
-    import ruckig
-
     if path.n == 0:
         raise UsageError("the plain planner needs a path with at least one block")
     vmax, accel, jerk = block_limits(path, machine)
     cap, dwell = junction_caps(path, machine, vmax)
+    return plan_plain_limits(path, vmax, accel, jerk, cap, dwell)
+
+
+def plan_plain_limits(path: Path, vmax, accel, jerk, cap, dwell) -> PlainMotion:
+    """The motion of ``path`` under given per-block limits (velocity cap, path acceleration
+    and jerk, each block its own) and per-junction crossing caps and standing times: zero
+    acceleration at every junction, junction speeds from the two passes, ruckig's
+    time-optimal motion in every block. Also the independent reference for ncsim's planner
+    fed the same limits (``tests/test_plan_blocks.py``)."""
+    import ruckig
+
+    vmax, accel, jerk, cap, dwell = (np.array(x, dtype=np.float64)
+                                     for x in (vmax, accel, jerk, cap, dwell))
+    cap[:-1] = np.minimum(cap[:-1], vmax)             # a junction is in both its blocks
+    cap[1:] = np.minimum(cap[1:], vmax)
     v = junction_speeds(path, vmax, accel, jerk, cap)
     solver = ruckig.Ruckig(1)
     trajs, durations = [], np.zeros(path.n)
