@@ -15,8 +15,7 @@
    corner (a tight turn of a noisy raster, where G64 crosses the corner with the MD32310 jump
    and the curve would have to honour the path jerk). So no block of a compressed run is
    slower than as programmed: COMPON/COMPCURV/COMPCAD are never slower than COMPOF on the same
-   points (``tests/test_hsm_properties.py``), up to the tangential acceleration a curve leaves
-   (eq. 1) where a section's ramp takes the least of its blocks;
+   points (``tests/test_hsm_properties.py``);
 2. the corner rounding (:mod:`ncsim.plan.blend`) inserts the rounding blocks of G641-G645 at
    the corners left (not inside compressed runs) and smooths G645 transitions.
 
