@@ -460,11 +460,11 @@ def parse_text(text: str, file: str = "<string>", *, fast: bool = True,
     return P.Program(file, items, len(lines))
 
 
-def read_program_text(path: str | FsPath) -> str:
-    """The text of a program file: UTF-8, or Latin-1 (840D files often are) if not UTF-8. A
-    path that is no regular file (a FIFO, a device) is refused before reading
-    (``config.read_bytes``)."""
-    data = read_bytes(path, "program", error=NcError)
+def read_program_text(path: str | FsPath, what: str = "program") -> str:
+    """The text of a program file (or of another file in the 840D language, ``what`` it is
+    named in messages): UTF-8, or Latin-1 (840D files often are) if not UTF-8. A path that is no
+    regular file (a FIFO, a device) is refused before reading (``config.read_bytes``)."""
+    data = read_bytes(path, what, error=NcError)
     if data.startswith(codecs.BOM_UTF8):
         data = data[len(codecs.BOM_UTF8):]
     try:
