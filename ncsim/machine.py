@@ -21,6 +21,7 @@ import numpy as np
 
 from ncsim.config import Problems, between, is_number, open_share, read_toml, share, share0
 from ncsim.errors import ConfigWarning, MachineSpecError
+from ncsim.nc.isomachine import IsoSpec, dump_iso, iso_spec
 from ncsim.path import BRISK, COMPCAD, COMPOF, COMPRESSOR_NAMES, DRIVE, SOFT
 from ncsim.units import (deg_to_rad, m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_min_to_mm_s,
                          mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min, mm_s_to_mm_min, ms_to_s,
@@ -162,6 +163,8 @@ class MachineSpec:
     cycle832: Cycle832Spec = field(default_factory=Cycle832Spec)
     #: values of system variables programs read (``"$AN_NCK_VERSION"``, ``"$MA_X[Z]"``)
     system_variables: tuple[tuple[str, float | str], ...] = ()
+    #: how ISO dialect programs run (``[iso]``, :mod:`ncsim.nc.isomachine`)
+    iso: IsoSpec = field(default_factory=IsoSpec)
 
     def axis(self, name: str) -> AxisSpec:
         for a in self.axes:
@@ -344,7 +347,7 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
     :class:`~ncsim.errors.MachineSpecError`."""
     c = Problems(file, MachineSpecError)
     c.unknown(data, "", {"machine", "axes", "ncu", "work_offsets", "structure", "cycle832",
-                         "system_variables"})
+                         "system_variables", "iso"})
     data = _read_old_corner_key(data, c)
 
     mtab = c.table(data, "machine", required=True)
@@ -428,13 +431,14 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
             svalues[f] = v
 
     sysvars = _system_variables(c, c.table(data, "system_variables"))
+    iso = iso_spec(c, data)
     c.raise_if_any()
     _unusual_values(c, {f"axes.{a}": atab[a] for a in AXIS_NAMES} | {"ncu": ntab})
     return MachineSpec(name=name, description=description, axes=tuple(axes),
                        ncu=NcuSpec(**ncu_values), source=file,
                        work_offsets_mm=tuple(offsets), structure=StructureSpec(**svalues),
                        warnings=tuple(c.warnings), cycle832=cycle832,
-                       system_variables=sysvars)
+                       system_variables=sysvars, iso=iso)
 
 
 _SYSVAR_KEY = re.compile(r"^\$[A-Z_][A-Z0-9_]*(\[[A-Z0-9_]+(,[A-Z0-9_]+)*\])?$")
@@ -633,6 +637,7 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
             e = spec.cycle832.expansion(CYCLE832_TYPES.index(t))
             lines += ["", f"[cycle832.{t}]"]
             lines += [f"{k} = {_q(fmt(getattr(e, k)))}" for k, fmt in names.items()]
+    lines += dump_iso(spec.iso)
     if spec.system_variables:
         lines += ["", "[system_variables]"]
         for key, value in spec.system_variables:

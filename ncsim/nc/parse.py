@@ -30,6 +30,7 @@ from lark.exceptions import (LarkError, UnexpectedCharacters, UnexpectedEOF, Une
 
 from ncsim.nc import program as P
 from ncsim.errors import NcError, NcSyntaxError
+from ncsim.nc.isoparse import parse_dialect_text, switches_dialect
 
 # Words whose name is an 840D address (``X=..`` is a word, not a variable assignment).
 ADDRESSES = frozenset({
@@ -442,9 +443,16 @@ def normalize_newlines(text: str) -> str:
     return text.replace("\r\n", "\n").replace("\r", "\n") if "\r" in text else text
 
 
-def parse_text(text: str, file: str = "<string>", *, fast: bool = True) -> P.Program:
-    """Parse a whole program. ``fast`` reads plain lines with :mod:`ncsim.nc.fastparse`."""
+def parse_text(text: str, file: str = "<string>", *, fast: bool = True, dialect: str = "siemens",
+               iso_plain: bool = True) -> P.Program:
+    """Parse a whole program. ``fast`` reads plain lines with :mod:`ncsim.nc.fastparse`.
+    ``dialect`` is the language the program starts in (``"iso"``: ISO dialect mode, G291); a
+    program that switches with G290/G291 is read by :mod:`ncsim.nc.isoparse` (``iso_plain``:
+    its ISO plain lines may be read as columns)."""
     text = normalize_newlines(text)
+    if dialect != "siemens" or switches_dialect(text):
+        return parse_dialect_text(text, file, parse_block, fast=fast, dialect=dialect,
+                                  iso_plain=iso_plain)
     if fast:
         from ncsim.nc.fastparse import scan_program
         return scan_program(text, file, parse_block)

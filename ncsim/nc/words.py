@@ -25,6 +25,7 @@ setting) or :mod:`ncsim.nc.moves` (a motion); a new G function is an entry of
 from __future__ import annotations
 
 from ncsim.nc import program as P
+from ncsim.nc.dialect import SIEMENS_MODE_ISO, iso_hint, siemens_mode_iso_code
 from ncsim.nc.expr import evaluate_arg
 from ncsim.nc.modal import CIP, CT, G_CODES, G_UNSUPPORTED, MOTION_NAMES
 
@@ -185,8 +186,10 @@ class Words:
     def _gcode(self, ctx, code: int, col: int) -> None:
         if code in G_UNSUPPORTED:
             raise ctx.unsupported(f"{G_UNSUPPORTED[code]} is not simulated", col)
+        if code in SIEMENS_MODE_ISO:
+            code = siemens_mode_iso_code(ctx, code, col)
         if code not in G_CODES:
-            raise ctx.error(f"unknown G function G{code}", col)
+            raise ctx.error(f"unknown G function G{code}{iso_hint(code)}", col)
         group, _ = G_CODES[code]
         if group in ctx.gcodes:
             other = _g_name(group, ctx.gcodes[group][0])
