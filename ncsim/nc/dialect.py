@@ -82,7 +82,7 @@ def foreign_code(text: str, file: str, siemens: bool = True) -> NcError | None:
     lines = text.split("\n")[:20000]
     signs = _signs(lines, _LINUXCNC)
     if signs:
-        shown = ", ".join(dict.fromkeys(s[0] for s in signs[:8]))
+        shown = ", ".join(list(dict.fromkeys(s[0] for s in signs))[:3])
         _, line, col = signs[0]
         return NcError(f"looks like LinuxCNC/RS274NGC code ({shown}): not an 840D program", file,
                        line, col)

@@ -27,7 +27,6 @@ import math
 from dataclasses import dataclass
 
 from ncsim.geometry import PLANE_AXES
-from ncsim.nc.expr import format_value
 
 CYCLE_CODES = (73, 74, 76, 81, 82, 83, 84, 85, 86, 89)
 NOT_SIMULATED = {87: "G87 back boring (spindle orientation under the part)",
@@ -128,10 +127,6 @@ class Cycles:
     def _hole(self, ctx, hole: list, axis: int, scale: float) -> None:
         d = self.data
         initial, r, bottom = self._levels(axis, scale)
-        if (bottom - r) * (initial - r) > 0.0 and bottom != r:
-            raise ctx.error(f"G{d.code}: the bottom {format_value(bottom)} and the initial "
-                            f"level lie on the same side of the R level {format_value(r)}",
-                            ctx.first_col)
         down = math.copysign(1.0, bottom - r) if bottom != r else -1.0
         hole[axis] = self.st.pos_wcs[axis]
         self._move(ctx, hole, True)                      # positioning in the plane

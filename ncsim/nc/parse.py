@@ -39,8 +39,8 @@ ADDRESSES = frozenset({
     "CTOL", "OTOL", "SPOS", "SPOSA", "LIMS",
 })
 # Addresses that take an index: ``AX[_Z]=`` (indirect axis), ``IP[_Z]=`` (its interpolation
-# parameter), ``SPOS[2]=``, ``LIMS[1]=`` ...; any other ``NAME[i]=`` is an array element.
-INDEXED_ADDRESSES = frozenset({"AX", "IP", "SPOS", "SPOSA", "LIMS", "S", "M", "T", "H"})
+# parameter), ``SPOS[2]=``, ``LIMS[1]=``, ``FGREF[C]=`` ...; any other ``NAME[i]=`` is an array element.
+INDEXED_ADDRESSES = frozenset({"AX", "IP", "SPOS", "SPOSA", "LIMS", "S", "M", "T", "H", "FGREF"})
 
 # "NAME (" that is a call, not a word and a comment: the PROC statement and the calls that real
 # programs write with a blank (Siemens' cycle sources, CYCLE_KONUS-like shop cycles).

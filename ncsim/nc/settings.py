@@ -14,7 +14,8 @@
   (mm/rev x rev/min) while the spindle turns (M3/M4), G97 as G95 and G971 as G94 without a G96
   before (Programming Manual Fundamentals, "Feedrate (G93, G94, G95, F)"); F keeps its value
   when the feed type changes and is read in the new unit;
-* SBLOF/SBLON/DISPLOF/DISPLON (single block, display) and SETMS change nothing that takes time;
+* SBLOF/SBLON/DISPLOF/DISPLON (single block, display), SETMS and RTLION (G0 with linear
+  interpolation, as simulated) change nothing that takes time;
 * ADIS/ADISPOS are the G641 rounding distances, CTOL the contour tolerance of the compressor
   and of G642-G645 rounding, OTOL the orientation tolerance (recorded); a negative value deletes
   them (Job Planning "CTOL, OTOL, ATOL"); SOFT/BRISK/DRIVE change the acceleration mode (and
@@ -43,7 +44,7 @@ from ncsim.units import mm_min_to_mm_s
 _ZERO3 = (0.0, 0.0, 0.0)
 _FRAME_COMMANDS = ("TRANS", "ATRANS", "ROT", "AROT", "SCALE", "ASCALE", "MIRROR", "AMIRROR")
 _TRANSFORMATIONS = ("TRAORI", "TRANSMIT", "TRACYL", "TRAANG")
-_NO_TIME_COMMANDS = ("SBLOF", "SBLON", "DISPLOF", "DISPLON", "SETMS")
+_NO_TIME_COMMANDS = ("SBLOF", "SBLON", "DISPLOF", "DISPLON", "SETMS", "RTLION")
 
 # Command words a block handles itself; any other name is a subprogram call.
 HANDLED_COMMANDS = frozenset(
