@@ -142,8 +142,9 @@ class IsoExec:
         elif isinstance(s, IsoGoto):
             self._goto(ctx, s)
         elif isinstance(s, IsoWhile):
+            loops = self._loops(ctx, fr.unit)       # paired when first reached, as a whole
             if s.cond is not None and not self.macro.truth(ctx, s.cond):
-                fr.pc = self._loops(ctx, fr.unit)[fr.pc - 1] + 1
+                fr.pc = loops[fr.pc - 1] + 1
         elif isinstance(s, IsoEnd):
             fr.pc = self._loops(ctx, fr.unit)[fr.pc - 1]
             self.state.jumped_back(ctx.file, ctx.line, s.col)
@@ -206,6 +207,9 @@ class IsoExec:
             if value is not None:                    # a vacant variable: the word is omitted
                 words.append((w.address, ctx.in_range(value, w.address, w.col), w.col, w.point))
         groups = self._gcodes(ctx, [(v, c) for a, v, c, _ in words if a == "G"])
+        if "macro" in groups:                       # G65: every other word is an argument
+            self.calls.macro_call(ctx, groups["macro"][1], words)
+            return
         extra: dict = {}
         calls = []
         dwell = "dwell" in groups
@@ -311,8 +315,6 @@ class IsoExec:
                 ctx.values["CR"] = (extra["R"][0], extra["R"][1])
                 ctx.centre.clear()                 # R is the radius (and wins over I J K)
             self.moves.motion(ctx)
-        if "macro" in groups:
-            self.calls.macro_call(ctx, extra, used)
         for code, col in calls:
             self.calls.m_call(ctx, code, col, extra, used)
         leftover = [k for k in extra if k not in used and k not in ("H", "D")]

@@ -82,23 +82,24 @@ class IsoCalls:
         unit = self._unit(ctx, number, col)
         self.iso.interp.calls.push(unit, (), repeats, level_refs(locals_of(state.stack)))
 
-    def macro_call(self, ctx, extra: dict, used: set) -> None:
-        """G65 P<n> L<k> with arguments: a new macro level whose #1..#26 are the arguments."""
-        used.update(("P", "L"))
-        col = ctx.first_col
-        number = self.iso.p_word(ctx, extra, "G65", 0, 99999999)
-        repeats = 1 if "L" not in extra else ctx.whole_number(extra["L"][0], "L", extra["L"][1])
-        variables: dict = {}
-        given = {**{a: v for a, (v, _, _) in extra.items()},
-                 **{a: v for a, (v, _, _) in ctx.axes.items()},
-                 **{a: v for a, (v, _, _) in ctx.centre.items()},
-                 **{a: v for a, (v, _) in ctx.values.items()}}
-        for address, value in given.items():
-            if address in _ARGUMENTS and address not in ("P", "L"):
-                used.add(address)
-                variables[f"#{_ARGUMENTS[address]}"] = ["REAL", value]
-        ctx.axes.clear()
-        ctx.centre.clear()
+    def macro_call(self, ctx, col: int, words: list) -> None:
+        """G65 P<n> L<k> A.. Z..: a new macro level whose #1..#26 are the arguments (argument
+        specification I); the block holds nothing else."""
+        given: dict = {}
+        for address, value, wcol, _ in words:
+            if address == "G":
+                continue
+            if address in given:
+                raise ctx.error(f"{address} programmed twice in one block", wcol)
+            if address not in _ARGUMENTS and address not in ("P", "L"):
+                raise ctx.error(f"{address} is no G65 argument (A..Z without G L N O P)", wcol)
+            given[address] = (value, wcol)
+        if "P" not in given:
+            raise ctx.error("G65 needs the program number P", col)
+        number = ctx.whole_number(given["P"][0], "P", given["P"][1])
+        repeats = 1 if "L" not in given else ctx.whole_number(given["L"][0], "L", given["L"][1])
+        variables = {f"#{_ARGUMENTS[a]}": ["REAL", v] for a, (v, _) in given.items()
+                     if a in _ARGUMENTS}
         unit = self._unit(ctx, number, col)
         if repeats:
             self.iso.interp.calls.push(unit, (), repeats, level_refs(variables))
