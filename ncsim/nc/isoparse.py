@@ -241,32 +241,25 @@ class _Reader:
         return P.BinOp(op, left, self.sum(), col)
 
     def sum(self):
-        left = self.term()
-        while True:
-            col = self.col()
-            ch = self.peek()
-            if ch in ("+", "-"):
-                self.pos += 1
-                op = ch
-            else:
-                op = self.keyword("OR", "XOR")
-                if op is None:
-                    return left
-            left = P.BinOp(op, left, self.term(), col)
+        return self.chain(self.term, ("+", "-"), ("OR", "XOR"))
 
     def term(self):
-        left = self.unary()
+        return self.chain(self.unary, ("*", "/"), ("AND", "MOD"))
+
+    def chain(self, operand, symbols: tuple, words: tuple):
+        """``operand (op operand)*``, left-associative, for the operators of one priority."""
+        left = operand()
         while True:
             col = self.col()
             ch = self.peek()
-            if ch in ("*", "/"):
+            if ch and ch in symbols:
                 self.pos += 1
                 op = ch
             else:
-                op = self.keyword("AND", "MOD")
+                op = self.keyword(*words)
                 if op is None:
                     return left
-            left = P.BinOp(op, left, self.unary(), col)
+            left = P.BinOp(op, left, operand(), col)
 
     def unary(self):
         col = self.col()
