@@ -24,7 +24,10 @@ modal columns say how the NC treats the segment and its junctions:
   ``N.. G1 X.. Y.. Z.. F..`` came since the last segment (SINUMERIK Job Planning "NC block
   compression": it interrupts the compressor, a new run starts with this block);
 * ``ctol_mm``: the programmed contour tolerance in force (CTOL= or CYCLE832), NaN when none
-  (the machine data MD33100/SD42465 apply).
+  (the machine data MD33100/SD42465 apply);
+* ``dyn_group``: the technology group (G group 59) whose axis dynamics apply: 0 DYNNORM,
+  1 DYNPOS, 2 DYNROUGH, 3 DYNSEMIFIN, 4 DYNFINISH, 5 DYNPREC (``machine.TECHNOLOGY_GROUPS``;
+  selected by the DYN... words and CYCLE832, resolved by ``plan.limits``).
 """
 from __future__ import annotations
 
@@ -74,6 +77,7 @@ _COLUMNS: dict[str, tuple[type, tuple[int, ...], object]] = {
     "dwell_before_s": (np.float64, (), 0.0),
     "compressor": (np.int8, (), COMPOF),
     "ctol_mm": (np.float64, (), np.nan),
+    "dyn_group": (np.int8, (), 0),
 }
 
 
@@ -105,6 +109,7 @@ class Segment:
     dwell_before_s: float
     compressor: int = COMPOF
     ctol_mm: float = float("nan")
+    dyn_group: int = 0
 
     @property
     def is_arc(self) -> bool:
@@ -145,6 +150,7 @@ class Path:
     dwell_before_s: np.ndarray
     compressor: np.ndarray
     ctol_mm: np.ndarray
+    dyn_group: np.ndarray
     files: tuple[str, ...] = ("<program>",)
     end_dwell_s: float = 0.0  # dwell after the last segment (G4 at the end of the program)
 
@@ -210,6 +216,7 @@ class Path:
             dwell_before_s=float(self.dwell_before_s[i]),
             compressor=int(self.compressor[i]),
             ctol_mm=float(self.ctol_mm[i]),
+            dyn_group=int(self.dyn_group[i]),
         )
 
     def segments(self) -> Iterable[Segment]:

@@ -105,6 +105,7 @@ from ncsim.nc.flow import Flow, split_units
 from ncsim.nc.iso import IsoExec
 from ncsim.nc.isocalls import split_programs
 from ncsim.nc.isoparse import IsoBlock
+from ncsim.nc.macros import definition_macros
 from ncsim.nc.modal import COMPRESSOR_COMMANDS, DYNAMIC_COMMANDS
 from ncsim.nc.moves import Moves
 from ncsim.nc.parse import parse_text, read_program_text
@@ -175,8 +176,9 @@ def interpret_text(text: str, file: str = "<string>", machine: MachineSpec | Non
     interp = Interpreter(machine, options, setup_offsets, search_dir)
     spec = interp.iso.spec
     start = dialect or spec.dialect
+    interp.state.macros = definition_macros(options.definitions)
     try:
-        program = parse_text(text, file, fast=fast, dialect=start,
+        program = parse_text(text, file, fast=fast, macros=interp.state.macros, dialect=start,
                              iso_plain=not spec.standard_notation)
         return interp.run(program)
     except NcError as exc:

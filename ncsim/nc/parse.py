@@ -443,13 +443,16 @@ def normalize_newlines(text: str) -> str:
     return text.replace("\r\n", "\n").replace("\r", "\n") if "\r" in text else text
 
 
-def parse_text(text: str, file: str = "<string>", *, fast: bool = True, dialect: str = "siemens",
+def parse_text(text: str, file: str = "<string>", *, fast: bool = True,
+               macros: dict[str, str] | None = None, dialect: str = "siemens",
                iso_plain: bool = True) -> P.Program:
-    """Parse a whole program. ``fast`` reads plain lines with :mod:`ncsim.nc.fastparse`.
-    ``dialect`` is the language the program starts in (``"iso"``: ISO dialect mode, G291); a
-    program that switches with G290/G291 is read by :mod:`ncsim.nc.isoparse` (``iso_plain``:
-    its ISO plain lines may be read as columns)."""
-    text = normalize_newlines(text)
+    """Parse a whole program. ``fast`` reads plain lines with :mod:`ncsim.nc.fastparse`;
+    ``macros`` (of a definitions file) and the program's own DEFINEs are expanded first
+    (:mod:`ncsim.nc.macros`). ``dialect`` is the language the program starts in (``"iso"``:
+    ISO dialect mode, G291); a program that switches with G290/G291 is read by
+    :mod:`ncsim.nc.isoparse` (``iso_plain``: its ISO plain lines may be read as columns)."""
+    from ncsim.nc.macros import expand_macros
+    text, _ = expand_macros(normalize_newlines(text), file, macros, upper_code)
     if dialect != "siemens" or switches_dialect(text):
         return parse_dialect_text(text, file, parse_block, fast=fast, dialect=dialect,
                                   iso_plain=iso_plain)
