@@ -26,7 +26,7 @@ import click
 from ncsim import __version__
 from ncsim.cli.batch import batch
 from ncsim.cli.gap import gap
-from ncsim.cli.params import FilePath, FiniteFloatRange
+from ncsim.cli.params import FilePath, FiniteFloatRange, dialect_option
 from ncsim.errors import ExitStatus, NcsimError, UsageError
 from ncsim.units import FEED_UNITS, s_to_ms
 
@@ -104,6 +104,7 @@ def _compile_notice(text: str) -> None:
 def program_options(func):
     """How the program is read: subprogram folders, missing subprograms, GUD definitions and
     the block budget (``nc_options`` pops them for ``pipeline.simulate``)."""
+    func = dialect_option(func)
     func = click.option("--block-budget", type=click.IntRange(min=1), default=None, metavar="N",
                         help="Stop as an endless loop after N executed blocks [default: the "
                              "program's lines + 2,000,000, FOR loop passes not counted].")(func)
@@ -126,7 +127,8 @@ def nc_options(params: dict) -> dict:
     return {"subprograms": params.pop("subprograms", ()),
             "missing_subprograms": params.pop("missing_subprograms", "error"),
             "definitions": params.pop("definitions", ()),
-            "block_budget": params.pop("block_budget", None)}
+            "block_budget": params.pop("block_budget", None),
+            "dialect": params.pop("dialect", None)}
 
 
 @cli.command("parse")

@@ -27,6 +27,7 @@ from ncsim.machine.checks import (MIN_DERIVED_ACCEL_M_S2, MIN_DERIVED_JERK_M_S3,
                                   unusual_values)
 from ncsim.machine.dynamics import (ALL_GROUPS_KEY, TECHNOLOGY_GROUPS, GroupDynamics, dump_dynamics,
                                     group_limits, read_dynamics)
+from ncsim.machine.iso import IsoSpec, dump_iso, iso_spec
 from ncsim.path import BRISK, COMPCAD, COMPOF, COMPRESSOR_NAMES, DRIVE, SOFT
 from ncsim.units import (deg_to_rad, m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_min_to_mm_s,
                          mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min, mm_s_to_mm_min, ms_to_s,
@@ -178,6 +179,8 @@ class MachineSpec:
     cycle832: Cycle832Spec = field(default_factory=Cycle832Spec)
     #: values of system variables programs read (``"$AN_NCK_VERSION"``, ``"$MA_X[Z]"``)
     system_variables: tuple[tuple[str, float | str], ...] = ()
+    #: how ISO dialect programs run (``[iso]``, :mod:`ncsim.machine.iso`)
+    iso: IsoSpec = field(default_factory=IsoSpec)
     #: ``[machine] type``: "milling" or "turning" (a lathe: G18 and DIAMON at reset, MACHINE_TYPES)
     kind: str = "milling"
     #: ``[dynamics]``: per technology group (TECHNOLOGY_GROUPS) axis limits
@@ -368,7 +371,7 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
     :class:`~ncsim.errors.MachineSpecError`."""
     c = Problems(file, MachineSpecError)
     c.unknown(data, "", {"machine", "axes", "ncu", "work_offsets", "structure", "cycle832",
-                         "system_variables", "dynamics"})
+                         "system_variables", "dynamics", "iso"})
     data = _read_old_corner_key(data, c)
 
     mtab = c.table(data, "machine", required=True)
@@ -465,6 +468,7 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
             svalues[f] = v
 
     sysvars = _system_variables(c, c.table(data, "system_variables"))
+    iso = iso_spec(c, data)
     dynamics = read_dynamics(c, c.table(data, "dynamics"), axes)
     if len(axes) == len(AXIS_NAMES) and not c:
         least_accel_mm_s2 = float(group_limits(axes, dynamics)[:, 1, :].min())
@@ -475,7 +479,7 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
                        ncu=NcuSpec(**ncu_values), source=file,
                        work_offsets_mm=tuple(offsets), structure=StructureSpec(**svalues),
                        warnings=tuple(c.warnings), cycle832=cycle832,
-                       system_variables=sysvars, kind=kind, dynamics=dynamics)
+                       system_variables=sysvars, kind=kind, dynamics=dynamics, iso=iso)
 
 
 _SYSVAR_KEY = re.compile(r"^\$[A-Z_][A-Z0-9_]*(\[[A-Z0-9_]+(,[A-Z0-9_]+)*\])?$")
@@ -623,6 +627,7 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
             e = spec.cycle832.expansion(CYCLE832_TYPES.index(t))
             lines += ["", f"[cycle832.{t}]"]
             lines += [f"{k} = {_q(fmt(getattr(e, k)))}" for k, fmt in names.items()]
+    lines += dump_iso(spec.iso)
     if spec.system_variables:
         lines += ["", "[system_variables]"]
         for key, value in spec.system_variables:

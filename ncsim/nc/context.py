@@ -64,6 +64,8 @@ APPROXIMATE_KINDS = {
     "dwell": "a G4 S dwell without spindle speed is taken as 0 s",
     "spindle positioning": "spindle positioning (SPOS) times are not simulated",
     "system variable": "assignments to system variables are not simulated",
+    "FGROUP": "a path feed of other axes than X, Y, Z (FGROUP) is not simulated",
+    "ISO cycle": "spindle reversal and orientation in ISO canned cycles take no time here",
     **{name: "technology groups the machine file does not define run with its [axes] dynamics"
        for name in ("DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "DYNPREC")},
     **{name: f"{what} ({name}) is not simulated" for name, what in COMMANDS_NOT_SIMULATED.items()},

@@ -99,11 +99,15 @@ from ncsim.machine import MachineSpec
 from ncsim.nc import program as P
 from ncsim.nc.calls import Calls
 from ncsim.nc.columns import ColumnPath
+from ncsim.nc.dialect import foreign_code
 from ncsim.nc.context import (BlockContext, InterpreterState, InterpretOptions, PathOutput,
                               RecordedCall, WordContext)
 from ncsim.nc.expr import Where
 from ncsim.nc.fastops import OpCompiler
 from ncsim.nc.flow import Flow, split_units
+from ncsim.nc.iso import IsoExec
+from ncsim.nc.isocalls import split_programs
+from ncsim.nc.isoparse import IsoBlock
 from ncsim.nc.macros import definition_macros
 from ncsim.nc.modal import COMPRESSOR_COMMANDS, DYNAMIC_COMMANDS
 from ncsim.nc.moves import Moves
@@ -154,9 +158,13 @@ def interpret_text(text: str, file: str = "<string>", machine: MachineSpec | Non
                    setup_offsets: dict[str, tuple[float, float, float]] | None = None,
                    fast: bool = True, skip_blocks: bool = False,
                    search_dir: str | FsPath | None = None, subprograms=(),
-                   missing_subprograms: str = "error", definitions=()) -> InterpretResult:
+                   missing_subprograms: str = "error", definitions=(),
+                   dialect: str | None = None) -> InterpretResult:
     """Interpret program text. ``fast=False`` sends every line through the Lark grammar and
-    evaluates every block with the reference interpreter.
+    evaluates every block with the reference interpreter. ``dialect`` is the language the
+    program starts in, ``"siemens"`` or ``"iso"`` (ISO dialect mode, :mod:`ncsim.nc.iso`;
+    None: the machine file's ``[iso] dialect``); a program that fails and looks like other
+    code gets an error saying so (:mod:`ncsim.nc.dialect`).
 
     ``machine`` gives work offsets, circle tolerances and system variables; ``setup_offsets``
     (``{"G54": (x, y, z)}``) override its offsets. ``skip_blocks`` activates block skip (``/``
@@ -169,10 +177,19 @@ def interpret_text(text: str, file: str = "<string>", machine: MachineSpec | Non
                                definitions=tuple(FsPath(d) for d in definitions),
                                block_budget=block_budget, fast=fast, skip_blocks=skip_blocks)
     interp = Interpreter(machine, options, setup_offsets, search_dir)
+    spec = interp.iso.spec
+    start = dialect or spec.dialect
     interp.state.macros = definition_macros(options.definitions)
-    program = parse_text(text, file, fast=fast, macros=interp.state.macros)
     try:
+        program = parse_text(text, file, fast=fast, macros=interp.state.macros, dialect=start,
+                             iso_plain=not spec.standard_notation)
         return interp.run(program)
+    except NcError as exc:
+        foreign = foreign_code(text, file, start == "siemens") if exc.file == file else None
+        if foreign is None:
+            raise
+        foreign.warnings = getattr(exc, "warnings", ())
+        raise foreign from None
     finally:
         interp.close()
 
@@ -201,6 +218,7 @@ class Interpreter:
         self.ran_off_end = False     # the main program ran past its last line
         self.main_unit = None
         self.ops = OpCompiler(self)
+        self.iso = IsoExec(self)
         self.vector_min_rows = VECTOR_MIN_ROWS
 
     def run(self, program: P.Program) -> InterpretResult:
@@ -213,7 +231,8 @@ class Interpreter:
         try:
             for definitions in state.options.definitions:
                 load_definitions(state, definitions)
-            units = split_units(program, FsPath(program.file).stem.upper() or "MAIN")
+            units = split_programs(split_units(program, FsPath(program.file).stem.upper() or
+                                               "MAIN"))
             self.main_unit = units[0]
             self.calls.add_units(units[1:])
             self.calls.push(units[0], (), 1)
@@ -311,7 +330,10 @@ class Interpreter:
             run = item.slice(fr.row) if fr.row else item
             fr.row = 0
             fr.pc += 1
-            self.exec_run(fr, run)
+            if run.iso:
+                self.iso.run(fr, run)
+            else:
+                self.exec_run(fr, run)
             return
         self.state.count(fr.unit.file, item.line)
         self.generic_uncounted(fr, pc)
@@ -326,7 +348,9 @@ class Interpreter:
         fr.pc = pc + 1
         if state.skip_blocks and item.skip_level is not None:
             return
-        if item.statement is not None:
+        if type(item) is IsoBlock:
+            self.iso.block(fr, item)
+        elif item.statement is not None:
             self.flow.execute(BlockContext(state, fr, item.line), item.statement)
         else:
             self.exec_block(fr, item)

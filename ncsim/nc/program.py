@@ -317,6 +317,7 @@ class PlainRun:
     g: np.ndarray
     values: np.ndarray
     cols: np.ndarray
+    iso: bool = False    # read in ISO dialect mode (ncsim.nc.isoparse): the same words, its modes
 
     def __len__(self) -> int:
         return len(self.g)
@@ -342,7 +343,7 @@ class PlainRun:
     def rows(self, start: int, stop: int) -> "PlainRun":
         """The rows ``start:stop`` (views, no copy)."""
         return PlainRun(self.first_line + start, self.numbers[start:stop], self.g[start:stop],
-                        self.values[start:stop], self.cols[start:stop])
+                        self.values[start:stop], self.cols[start:stop], self.iso)
 
 
 @dataclass(frozen=True, slots=True, eq=False)

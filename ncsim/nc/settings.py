@@ -14,8 +14,9 @@
   (mm/rev x rev/min) while the spindle turns (M3/M4), G97 as G95 and G971 as G94 without a G96
   before (Programming Manual Fundamentals, "Feedrate (G93, G94, G95, F)"); F keeps its value
   when the feed type changes and is read in the new unit;
-* SBLOF/SBLON/DISPLOF/DISPLON (single block, display), SETMS and DRFOF (deletes handwheel
-  offsets, which ncsim has none of) change nothing that takes time;
+* SBLOF/SBLON/DISPLOF/DISPLON (single block, display), SETMS, RTLION (G0 with linear
+  interpolation, as simulated) and DRFOF (deletes handwheel offsets, which ncsim has none of)
+  change nothing that takes time;
 * DIAMOF/DIAMON/DIAM90/DIAMCYCOF select diameter programming of the transverse axis (G group
   29, :mod:`ncsim.nc.diameter`);
 * ADIS/ADISPOS are the G641 rounding distances, CTOL the contour tolerance of the compressor
@@ -51,7 +52,7 @@ _FRAME_COMMANDS = ("TRANS", "ATRANS", "ROT", "AROT", "SCALE", "ASCALE", "MIRROR"
 _TRANSFORMATIONS = ("TRAORI", "TRANSMIT", "TRACYL", "TRAANG")
 # DRFOF deletes the handwheel (DRF) offsets (Fundamentals, "Frames": "Deselecting the frame
 # (G53, G153, SUPA, G500)", DRFOF): ncsim has none to delete
-_NO_TIME_COMMANDS = ("SBLOF", "SBLON", "DISPLOF", "DISPLON", "SETMS", "DRFOF")
+_NO_TIME_COMMANDS = ("SBLOF", "SBLON", "DISPLOF", "DISPLON", "SETMS", "DRFOF", "RTLION")
 
 # Command words a block handles itself; any other name is a subprogram call.
 HANDLED_COMMANDS = frozenset(
