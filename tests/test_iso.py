@@ -213,6 +213,15 @@ def test_goto_if_and_nested_while():
     assert [s[1] for s in segs] == [(0.0, 6.0, 0.0)]
 
 
+def test_an_iso_loop_that_decides_nothing_is_endless_and_one_that_counts_is_not():
+    """WHILE [1 EQ 1] reads no variable: its second pass proves the loop endless (as LOOP or
+    WHILE 1 in Siemens mode); a WHILE on a # counter decides at every pass and runs out."""
+    with pytest.raises(NcError, match=r"t.nc:4:1: endless loop"):
+        _path("G91\nWHILE [1 EQ 1] DO 1\nG1 X1. F1000\nEND 1\nM30\n")
+    _, segs = _path("#1 = 0\nG91\nWHILE [#1 LT 5] DO 1\nG1 X1. F1000\n#1 = #1 + 1\nEND 1\nM30\n")
+    assert len(segs) == 5 and segs[-1][1] == (5.0, 0.0, 0.0)
+
+
 def test_m98_with_four_digit_count_m99_p_and_g65_arguments(tmp_path):
     (tmp_path / "O7.nc").write_text("O7\nG91 G1 X1. F100\nG90\nM99\n")
     (tmp_path / "O8.nc").write_text("O8\nG1 Y#25 Z#1\nM99\n")

@@ -42,6 +42,7 @@ from ncsim.machine.iso import IsoSpec
 from ncsim.nc import program as P
 from ncsim.nc.context import WordContext
 from ncsim.nc.expr import format_value
+from ncsim.nc.flow import reads_state
 from ncsim.nc.frames import translation
 from ncsim.nc.isocycles import CYCLE_CODES, NOT_SIMULATED, Cycles
 from ncsim.nc.isocalls import IsoCalls, find_number
@@ -134,7 +135,7 @@ class IsoExec:
         elif isinstance(s, IsoAssign):
             self.macro.write(ctx, s.target, self.macro.value(ctx, s.value))
         elif isinstance(s, IsoIf):
-            if self.macro.truth(ctx, s.cond):
+            if self._decide(ctx, s.cond):
                 if isinstance(s.then, IsoGoto):
                     self._goto(ctx, s.then)
                 else:
@@ -143,7 +144,7 @@ class IsoExec:
             self._goto(ctx, s)
         elif isinstance(s, IsoWhile):
             loops = self._loops(ctx, fr.unit)       # paired when first reached, as a whole
-            if s.cond is not None and not self.macro.truth(ctx, s.cond):
+            if s.cond is not None and not self._decide(ctx, s.cond):
                 fr.pc = loops[fr.pc - 1] + 1
         elif isinstance(s, IsoEnd):
             fr.pc = self._loops(ctx, fr.unit)[fr.pc - 1]
@@ -152,6 +153,14 @@ class IsoExec:
             ctx.record(f"G{s.code}", ())
 
     # ---- control -----------------------------------------------------------------------------
+
+    def _decide(self, ctx, cond) -> bool:
+        """The truth of an IF or WHILE condition, counted as a decision when it reads the
+        program's state (``InterpreterState.decisions``: a loop whose passes decide nothing is
+        an endless one, ``flow.reads_state``)."""
+        if reads_state(cond):
+            self.state.decisions += 1
+        return self.macro.truth(ctx, cond)
 
     def _loops(self, ctx, unit) -> dict:
         """WHILE [..] DO m / END m pairs of ``unit`` (nested loops close innermost first)."""
