@@ -162,6 +162,8 @@ class MachineSpec:
     cycle832: Cycle832Spec = field(default_factory=Cycle832Spec)
     #: values of system variables programs read (``"$AN_NCK_VERSION"``, ``"$MA_X[Z]"``)
     system_variables: tuple[tuple[str, float | str], ...] = ()
+    #: time an M6 tool change takes, chip to chip (``[tool_change] time_s``; 0: not simulated)
+    tool_change_s: float = 0.0
 
     def axis(self, name: str) -> AxisSpec:
         for a in self.axes:
@@ -292,6 +294,10 @@ _STRUCTURE_KEYS = (
     ("radial_compliance_um_per_m_s2", "radial_compliance_mm_per_mm_s2", False,
      between(0.0, 1e4, "um/(m/s^2)"), um_per_m_s2_to_s2),
 )
+#: ``[tool_change]``: the machine builder's tool-change time (no 840D machine data holds it)
+_TOOL_CHANGE_KEYS = (
+    ("time_s", "tool_change_s", False, between(0.0, 1e4, "s"), float),
+)
 
 #: key -> (usual low, usual high, unit, [(unit it may be in, factor to the key's unit)]):
 #: values of real machine tools (840D machine data defaults and manufacturers' data); outside
@@ -344,7 +350,7 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
     :class:`~ncsim.errors.MachineSpecError`."""
     c = Problems(file, MachineSpecError)
     c.unknown(data, "", {"machine", "axes", "ncu", "work_offsets", "structure", "cycle832",
-                         "system_variables"})
+                         "system_variables", "tool_change"})
     data = _read_old_corner_key(data, c)
 
     mtab = c.table(data, "machine", required=True)
@@ -428,13 +434,18 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
             svalues[f] = v
 
     sysvars = _system_variables(c, c.table(data, "system_variables"))
+    ttab = c.table(data, "tool_change")
+    c.unknown(ttab, "tool_change", {k for k, *_ in _TOOL_CHANGE_KEYS})
+    tool_change = {f: v for k, f, req, chk, conv in _TOOL_CHANGE_KEYS
+                   if (v := c.number(ttab, "tool_change", k, required=req, check=chk,
+                                     convert=conv)) is not None}
     c.raise_if_any()
     _unusual_values(c, {f"axes.{a}": atab[a] for a in AXIS_NAMES} | {"ncu": ntab})
     return MachineSpec(name=name, description=description, axes=tuple(axes),
                        ncu=NcuSpec(**ncu_values), source=file,
                        work_offsets_mm=tuple(offsets), structure=StructureSpec(**svalues),
                        warnings=tuple(c.warnings), cycle832=cycle832,
-                       system_variables=sysvars)
+                       system_variables=sysvars, **tool_change)
 
 
 _SYSVAR_KEY = re.compile(r"^\$[A-Z_][A-Z0-9_]*(\[[A-Z0-9_]+(,[A-Z0-9_]+)*\])?$")
@@ -637,6 +648,8 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
         lines += ["", "[system_variables]"]
         for key, value in spec.system_variables:
             lines.append(f"{_q(key)} = {_q(value) if isinstance(value, str) else _f(value)}")
+    if spec.tool_change_s:
+        lines += ["", "[tool_change]", f"time_s = {_f(spec.tool_change_s)}  # M6, chip to chip"]
     if spec.structure.radial_compliance_mm_per_mm_s2:
         lines += ["", "[structure]",
                   f"radial_compliance_um_per_m_s2 = {_f(s2_to_um_per_m_s2(spec.structure.radial_compliance_mm_per_mm_s2))}"]

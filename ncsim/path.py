@@ -25,10 +25,15 @@ modal columns say how the NC treats the segment and its junctions:
   compression": it interrupts the compressor, a new run starts with this block);
 * ``ctol_mm``: the programmed contour tolerance in force (CTOL= or CYCLE832), NaN when none
   (the machine data MD33100/SD42465 apply).
+
+Where a segment comes from in the program's structure (for reports; the planner ignores
+them): ``block_number`` is the N number of its block (-1: none), ``tool`` and ``operation``
+index the string tables ``tools`` and ``operations`` (-1: none), as ``file_index`` indexes
+``files`` (``ncsim.nc.outline`` says how they are found).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Iterable
 
 import numpy as np
@@ -74,6 +79,9 @@ _COLUMNS: dict[str, tuple[type, tuple[int, ...], object]] = {
     "dwell_before_s": (np.float64, (), 0.0),
     "compressor": (np.int8, (), COMPOF),
     "ctol_mm": (np.float64, (), np.nan),
+    "block_number": (np.int32, (), -1),
+    "tool": (np.int16, (), -1),
+    "operation": (np.int16, (), -1),
 }
 
 
@@ -105,6 +113,9 @@ class Segment:
     dwell_before_s: float
     compressor: int = COMPOF
     ctol_mm: float = float("nan")
+    block_number: int = -1
+    tool: str | None = None
+    operation: str | None = None
 
     @property
     def is_arc(self) -> bool:
@@ -145,8 +156,13 @@ class Path:
     dwell_before_s: np.ndarray
     compressor: np.ndarray
     ctol_mm: np.ndarray
+    block_number: np.ndarray
+    tool: np.ndarray
+    operation: np.ndarray
     files: tuple[str, ...] = ("<program>",)
     end_dwell_s: float = 0.0  # dwell after the last segment (G4 at the end of the program)
+    tools: tuple[str, ...] = ()        # names the ``tool`` column indexes
+    operations: tuple[str, ...] = ()   # names the ``operation`` column indexes
 
     def __post_init__(self) -> None:
         n = len(self.kind)
@@ -181,6 +197,14 @@ class Path:
     def file_of(self, i: int) -> str:
         return self.files[int(self.file_index[i])]
 
+    def tool_of(self, i: int) -> str | None:
+        k = int(self.tool[i])
+        return self.tools[k] if k >= 0 else None
+
+    def operation_of(self, i: int) -> str | None:
+        k = int(self.operation[i])
+        return self.operations[k] if k >= 0 else None
+
     def segment(self, i: int) -> Segment:
         if not -self.n <= i < self.n:
             raise IndexError(i)
@@ -210,6 +234,9 @@ class Path:
             dwell_before_s=float(self.dwell_before_s[i]),
             compressor=int(self.compressor[i]),
             ctol_mm=float(self.ctol_mm[i]),
+            block_number=int(self.block_number[i]),
+            tool=self.tool_of(i),
+            operation=self.operation_of(i),
         )
 
     def segments(self) -> Iterable[Segment]:
@@ -219,7 +246,7 @@ class Path:
     def select(self, index) -> "Path":
         """A new Path with the rows ``index`` (slice, mask or index array)."""
         cols = {name: np.array(getattr(self, name)[index]) for name in _COLUMNS}
-        return Path(**cols, files=self.files, end_dwell_s=self.end_dwell_s)
+        return replace(self, **cols)
 
     def replace_columns(self, **columns) -> "Path":
         """A new Path with some columns replaced (arrays are copied and cast)."""
@@ -229,7 +256,7 @@ class Path:
                 raise KeyError(name)
             dtype, shape, _ = _COLUMNS[name]
             cols[name] = np.array(np.broadcast_to(value, (self.n, *shape)), dtype=dtype)
-        return Path(**cols, files=self.files, end_dwell_s=self.end_dwell_s)
+        return replace(self, **cols)
 
     @staticmethod
     def empty(files: tuple[str, ...] = ("<program>",)) -> "Path":

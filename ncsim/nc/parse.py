@@ -22,6 +22,7 @@ import codecs
 import re
 from functools import lru_cache
 from importlib import resources
+from dataclasses import replace
 from pathlib import Path as FsPath
 
 from lark import Lark, Token, Transformer
@@ -29,6 +30,7 @@ from lark.exceptions import (LarkError, UnexpectedCharacters, UnexpectedEOF, Une
                              UnexpectedToken)
 
 from ncsim.nc import program as P
+from ncsim.nc.outline import operation_comments
 from ncsim.errors import NcError, NcSyntaxError
 
 # Words whose name is an 840D address (``X=..`` is a word, not a variable assignment).
@@ -445,14 +447,15 @@ def normalize_newlines(text: str) -> str:
 def parse_text(text: str, file: str = "<string>", *, fast: bool = True) -> P.Program:
     """Parse a whole program. ``fast`` reads plain lines with :mod:`ncsim.nc.fastparse`."""
     text = normalize_newlines(text)
+    comments = operation_comments(text)
     if fast:
         from ncsim.nc.fastparse import scan_program
-        return scan_program(text, file, parse_block)
+        return replace(scan_program(text, file, parse_block), operation_comments=comments)
     lines = text.split("\n")
     if lines and lines[-1] == "":
         lines.pop()
     items = tuple(parse_block(t, i + 1, file) for i, t in enumerate(lines))
-    return P.Program(file, items, len(lines))
+    return P.Program(file, items, len(lines), comments)
 
 
 def read_program_text(path: str | FsPath) -> str:
