@@ -305,7 +305,8 @@ def test_every_machine_file_key_is_documented(readme, repo_root):
     data = tomllib.loads((repo_root / "machines" / "mikron.toml").read_text())
     keys = {k for table in data.values() for k in table if not isinstance(table[k], dict)}
     keys |= {k for axis in data["axes"].values() for k in axis}
-    keys |= {k for k, *_ in machine._AXIS_KEYS + machine._NCU_KEYS + machine._STRUCTURE_KEYS}
+    keys |= {k for k, *_ in machine._AXIS_KEYS + machine._NCU_KEYS + machine._STRUCTURE_KEYS
+             + machine._TOOL_CHANGE_KEYS}
     keys |= set(machine._NCU_OTHER_KEYS)
     assert keys - documented == set()
     for md in ("MD32000", "MD32300", "MD32431", "MD10050"):
