@@ -7,7 +7,8 @@ Bad command-line usage (an unknown option, a value out of range) is one line as 
 Commands: ``run`` (cycle time and where the feed is limited), ``plot``, ``check`` (CI
 thresholds), ``machines``, ``explain`` (a machine's derived limits), ``parse``, ``warmup``
 (compile the numba kernels ahead; a first compilation is announced on stderr), and in their
-own modules ``batch`` (``cli.batch``) and ``gap`` (``cli.gap``). Heavy modules (the parser, the
+own modules ``batch`` (``cli.batch``), ``compare`` (``cli.compare``), ``report``
+(``cli.report``) and ``gap`` (``cli.gap``); the options they share are in ``cli.options``. Heavy modules (the parser, the
 planner, matplotlib, the gap diagnosis) are imported inside the commands that need them, so
 that ``ncsim --help`` is quick and ``ncsim run`` never imports matplotlib.
 """
@@ -17,12 +18,12 @@ import dataclasses
 import json
 import os
 import sys
-import time
 
 import click
 
 from ncsim import __version__
 from ncsim.cli.batch import batch
+from ncsim.cli.compare import compare_cmd
 from ncsim.cli.gap import gap
 from ncsim.cli.options import (Progress, echo_warnings, feed_unit_option, machine_option,
                                model_options, nc_options, program_options, simulation_options,
@@ -83,9 +84,11 @@ def cli() -> None:
     ncsim run PROGRAM --machine mikron        cycle time, reached feed, where time is lost
     ncsim plot PROGRAM --machine mikron -o run.png
     ncsim check PROGRAM --machine mikron --max-time 60
+    ncsim report PROGRAM --machine mikron -o report.html
+    ncsim compare BEFORE AFTER --machine mikron --max-slower 2
     ncsim machines / ncsim explain --machine mikron
 
-    Exit status: 0 ok, 1 a `check` threshold failed, 2 bad input, 130 interrupted.
+    Exit status: 0 ok, 1 a `check` or `compare` threshold failed, 2 bad input, 130 interrupted.
     """
     from ncsim import jit
     jit.on_compile(_compile_notice)
@@ -567,6 +570,7 @@ def warmup_cmd() -> None:
 # ---------------------------------------------------------------------------------------------
 
 cli.add_command(batch)
+cli.add_command(compare_cmd)
 cli.add_command(gap)
 
 
