@@ -29,6 +29,7 @@ from ncsim.cli.options import (Progress, echo_warnings, feed_unit_option, machin
                                model_options, nc_options, program_options, simulation_options,
                                text_only_feed_unit)
 from ncsim.cli.params import FilePath, FiniteFloatRange
+from ncsim.cli.report import report_cmd
 from ncsim.errors import ExitStatus, NcsimError, UsageError
 from ncsim.units import s_to_ms
 
@@ -572,6 +573,7 @@ def warmup_cmd() -> None:
 cli.add_command(batch)
 cli.add_command(compare_cmd)
 cli.add_command(gap)
+cli.add_command(report_cmd)
 
 
 def one_line_warning(message, category, filename, lineno, line=None) -> str:
