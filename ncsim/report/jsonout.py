@@ -5,10 +5,14 @@ block, then one string): 2.2 GB. :func:`write_summary` writes the summary's head
 JSON, then ``blocks_detail`` one compact line per block, made and written
 :data:`CHUNK_BLOCKS` at a time from the columns (``summary.block_rows``), so the memory is the
 run's own plus one chunk. ``--no-blocks`` leaves the list out.
+
+The summary's JSON Schema (draft 2020-12) ships with the package, ``summary.schema.json``
+beside this module (:func:`schema`); ``tests/test_summary_schema.py`` holds the summaries to it.
 """
 from __future__ import annotations
 
 import json
+from importlib import resources
 from typing import Iterable, TextIO
 
 import numpy as np
@@ -46,3 +50,8 @@ def write_summary(stream: TextIO, summary: dict, blocks: Iterable[list[dict]] | 
         stream.write(("\n  " if first else ",\n  ") + ",\n  ".join(encode(b) for b in chunk))
         first = False
     stream.write("]\n}\n" if first else "\n ]\n}\n")
+
+
+def schema() -> dict:
+    """The JSON Schema of the summary (``summary.schema.json``, shipped in the package)."""
+    return json.loads((resources.files("ncsim.report") / "summary.schema.json").read_text("utf-8"))
