@@ -42,8 +42,8 @@ def test_tables_add_up_to_the_cycle_time_on_a_real_program(shared, mikron):
     s = summary(simulate(shared / THWS, mikron), top=5, include_blocks=False)
     for table in ("by_operation", "by_tool"):
         rows = s[table]
-        assert sum(r["time_s"] for r in rows) == pytest.approx(s["cycle_time_s"], rel=1e-12)
-        assert sum(r["ideal_time_s"] for r in rows) == pytest.approx(s["ideal_time_s"], rel=1e-12)
+        assert sum(r["time_s"] for r in rows) == pytest.approx(s["cycle_time_s"], rel=1e-9)
+        assert sum(r["ideal_time_s"] for r in rows) == pytest.approx(s["ideal_time_s"], rel=1e-9)
         assert sum(r["lost_time_s"] for r in rows) == pytest.approx(s["lost_time_s"], rel=1e-9)
         losses = [r["lost_time_s"] for r in rows]
         assert losses == sorted(losses, reverse=True)
@@ -68,7 +68,7 @@ def test_lines_and_numbers_of_a_shop_program_with_loops(shared, mikron):
         assert lines[line]["n"] == n
         assert lines[line]["blocks"] == int((path.line == line).sum())
     assert {r["n"] for r in s["by_n"][:3]} == {32, 40, 48}
-    assert sum(r["time_s"] for r in s["by_line"]) == pytest.approx(s["cycle_time_s"], rel=1e-12)
+    assert sum(r["time_s"] for r in s["by_line"]) == pytest.approx(s["cycle_time_s"], rel=1e-9)
 
 
 def test_an_n_number_on_two_lines_sums_both(mikron):

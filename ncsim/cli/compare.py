@@ -43,8 +43,8 @@ def _summary_of(file: str, machine_name: str | None, options, nc: dict, params: 
 
 
 @click.command("compare")
-@click.argument("a", type=FilePath(exists=True))
-@click.argument("b", type=FilePath(exists=True))
+@click.argument("a", type=FilePath())
+@click.argument("b", type=FilePath())
 @machine_option(required=False)
 @simulation_options
 @click.option("--max-slower", "max_slower_pct", type=FiniteFloatRange(min=0), default=None,

@@ -35,9 +35,10 @@ MAX_RANGES = 8       # N ranges listed per group at most (the JSON says how many
 
 @dataclass(frozen=True, slots=True)
 class BlockTimes:
-    """Per block of the motion (module docstring); the arrays are ``n`` long."""
+    """Per block of the motion (module docstring); the arrays are ``n`` long. A block's time
+    is ``ideal_s + lost_s + dwell_s`` (its duration, settle and standstill before it; the
+    sum is not kept: a million-block summary needs one array less)."""
 
-    time_s: np.ndarray
     ideal_s: np.ndarray
     lost_s: np.ndarray
     dwell_s: np.ndarray
@@ -55,10 +56,7 @@ def block_times(motion, loss: Losses) -> BlockTimes:
     np.maximum(standing, 0.0, out=standing)
     if n:
         standing[-1] += max(float(dwell_j[n]) - float(settle[-1]), 0.0)
-    time = motion.t_end_s - motion.t_start_s
-    time += standing
-    time += settle
-    return BlockTimes(time_s=time, ideal_s=loss.ideal_s, lost_s=loss.lost_s, dwell_s=standing,
+    return BlockTimes(ideal_s=loss.ideal_s, lost_s=loss.lost_s, dwell_s=standing,
                       cause=loss.cause)
 
 
@@ -66,8 +64,9 @@ def _sums(key: np.ndarray, size: int, t: BlockTimes) -> dict[str, np.ndarray]:
     """Per group ``0..size-1`` of ``key`` (int64, no negative): blocks, time, ideal, lost and
     dwell."""
     out = {"blocks": np.bincount(key, minlength=size)}
-    for name in ("time_s", "ideal_s", "lost_s", "dwell_s"):
+    for name in ("ideal_s", "lost_s", "dwell_s"):
         out[name] = np.bincount(key, weights=getattr(t, name), minlength=size)
+    out["time_s"] = out["ideal_s"] + out["lost_s"] + out["dwell_s"]
     return out
 
 
@@ -162,19 +161,21 @@ def by_line_and_number(path, t: BlockTimes, top: int) -> tuple[list[dict], list[
 def _top_numbers(number, blocks, lost, offsets, top: int) -> np.ndarray:
     """The ``top`` N numbers losing the most time, as keys ``file << 32 | N``: the lines'
     losses gathered by number."""
-    used = np.flatnonzero((blocks > 0) & (number >= 0))
-    if not len(used):
+    used = (blocks > 0) & (number >= 0)
+    if not used.any():
         return np.zeros(0, dtype=np.int64)
-    n_key = number[used].astype(np.int64)
     if len(offsets) > 2:
-        n_key |= (np.searchsorted(offsets, used, side="right") - 1) << 32
+        n_key = number[used].astype(np.int64)
+        n_key |= (np.searchsorted(offsets, np.flatnonzero(used), side="right") - 1) << 32
+    else:
+        n_key = number[used]
     if len(n_key) < 2 or bool(np.all(n_key[1:] > n_key[:-1])):   # CAM output: each line
-        return n_key[_top(blocks[used], lost[used], top)]          # its own, rising N
+        return n_key[_top(blocks[used], lost[used], top)].astype(np.int64)   # its own N
     n_keys, n_group = np.unique(n_key, return_inverse=True)
     del n_key
     n_lost = np.bincount(n_group, weights=lost[used], minlength=len(n_keys))
     n_blocks = np.bincount(n_group, weights=blocks[used], minlength=len(n_keys))
-    return n_keys[_top(n_blocks, n_lost, top)]
+    return n_keys[_top(n_blocks, n_lost, top)].astype(np.int64)
 
 
 def _tally(key: np.ndarray, groups: np.ndarray, t: BlockTimes) -> tuple[dict, np.ndarray]:
@@ -277,7 +278,7 @@ def structure_lines(s: dict, where, width: int = 28) -> list[str]:
         rows = s.get(key) or []
         if not rows or (len(rows) == 1 and rows[0]["name"] is None):
             continue
-        out += ["", f"time by {title}, the one losing the most first (h:mm:ss; lost %: of the cycle)",
+        out += ["", f"time by {title}, most time lost first (h:mm:ss; lost %: share of the cycle)",
                 f"  {title:<{width}} {'time':>10} {'ideal':>10} {'lost':>10} {'lost %':>6}  "
                 f"{'lost most to':<14} N"]
         for r in rows[:TEXT_GROUPS]:

@@ -26,8 +26,11 @@ _BLOCKS = '\n "blocks_detail": ['   # where ``report.jsonout`` starts the per-bl
 
 def is_summary_file(file: str | os.PathLike) -> bool:
     """Whether ``file`` holds a JSON object (a saved summary) rather than a program."""
-    with open(file, "rb") as f:
-        head = f.read(64).lstrip()
+    try:
+        with open(file, "rb") as f:
+            head = f.read(64).lstrip()
+    except OSError as exc:
+        raise UsageError(f"{os.fspath(file)}: cannot read: {exc.strerror or exc}") from None
     return head.startswith(b"{")
 
 

@@ -12,9 +12,9 @@ and what is shown comes from ``report.view``:
    thin grey vertical lines mark block boundaries, labelled by N number (or source line) when
    there are few;
 2. ``feed_path``  the same feeds against the *cutting* path length (rapids take no length);
-3. ``xy_path``    the XY projection coloured by the reached feed on the feed axis's scale, the
-   view framed on the cutting moves (equal aspect), rapids as thin grey lines, block
-   boundaries as dots;
+3. ``xy_path``    the XY projection coloured by the share of the programmed feed reached
+   (``view.feed_ratio``: red far below F, green at F), the view framed on the cutting moves
+   (equal aspect), rapids as thin grey lines, block boundaries as dots;
 4. ``accel``      tangential and per-axis acceleration (m/s^2) against time, with the axes'
    limits dashed (when the machine is known);
 5. ``jerk``       tangential and per-axis jerk (m/s^3) likewise, on a robust scale: values far
@@ -22,7 +22,11 @@ and what is shown comes from ``report.view``:
    note says why an axis jerk may exceed its limit (the paper's eq. 10 rule,
    ``view.jerk_notes``).
 
-Feeds are drawn in one unit (``feed_unit``, mm/min by default). A window (``view.Window``,
+A whole program of more than MAX_BOUNDARIES blocks is drawn as an overview instead
+(``report.overview``: feeds per slice by CAM operation, time by operation, XY and side views).
+The background shading is merged into runs a reader can see (``view.dominant_runs``); notes
+go under the bottom panel, below its axis label. Feeds are drawn in one unit (``feed_unit``,
+mm/min by default). A window (``view.Window``,
 from ``--range``) zooms every panel to a time span. A trace read from CSV may lack columns;
 the panels that need them are left out and :attr:`RunFigure.missing` says which columns each
 one needs. Only matplotlib's object API and the Agg canvas are used (no pyplot, no global
