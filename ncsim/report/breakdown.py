@@ -106,6 +106,8 @@ def by_label(codes: np.ndarray, names: tuple[str, ...], numbers: np.ndarray,
              t: BlockTimes) -> list[dict]:
     """One row per name of ``names`` that ``codes`` (an operation or tool column, -1: none)
     uses, and one named None for the blocks without one, by time lost (largest first)."""
+    if not names:                                 # no operation (or tool) at all: one row
+        return [] if not len(codes) else [_whole(numbers, t)]
     size = len(names) + 1
     key = codes.astype(np.int64)
     key += 1                                      # 0: none
@@ -120,6 +122,19 @@ def by_label(codes: np.ndarray, names: tuple[str, ...], numbers: np.ndarray,
         rows.append({"name": (None, *names)[g], **_group(sums, g, cause),
                      "n_ranges": r[:MAX_RANGES], "n_ranges_more": max(len(r) - MAX_RANGES, 0)})
     return rows
+
+
+def _whole(numbers: np.ndarray, t: BlockTimes) -> dict:
+    """The one row of a program without operations (or tools): all its blocks."""
+    sums = {"blocks": np.array([len(numbers)]),
+            **{k: np.array([float(np.sum(getattr(t, k)))]) for k in ("ideal_s", "lost_s", "dwell_s")}}
+    sums["time_s"] = sums["ideal_s"] + sums["lost_s"] + sums["dwell_s"]
+    by_cause = np.bincount(t.cause.astype(np.int64), weights=t.lost_s, minlength=N_CAUSES)
+    by_cause[int(Limit.NONE)] = 0.0
+    cause = int(by_cause.argmax()) if by_cause.max() > 0 else int(Limit.NONE)
+    r = n_ranges(np.zeros(len(numbers), dtype=np.int8), numbers, 1)[0]
+    return {"name": None, **_group(sums, 0, cause), "n_ranges": r[:MAX_RANGES],
+            "n_ranges_more": max(len(r) - MAX_RANGES, 0)}
 
 
 def by_line_and_number(path, t: BlockTimes, top: int) -> tuple[list[dict], list[dict]]:
