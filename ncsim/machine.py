@@ -36,6 +36,13 @@ G0_TO_G1_MODES = (0, 1, 2, 3)
 #: operator-panel overrides a machine file may hold (what a recording was made with), percent
 MAX_OVERRIDE_PERCENT = 200.0
 WORK_OFFSET_NAMES = ("G54", "G55", "G56", "G57")
+#: ``[machine] type`` -> its MD20150 reset values of G groups 6 and 29 unless ``[ncu]`` gives
+#: them: a lathe G18 and DIAMON on its transverse axis X (MD20100), a milling machine G17 and
+#: DIAMOF (Fundamentals, "Dimensions for turning and milling"; "Plane selection: G17 to G19")
+MACHINE_TYPES = {"milling": {"reset_plane": 17, "reset_diameter_mode": 0},
+                 "turning": {"reset_plane": 18, "reset_diameter_mode": 1}}
+PLANES = {"G17": 17, "G18": 18, "G19": 19}
+DIAMETER_MODES = {"DIAMOF": 0, "DIAMON": 1, "DIAM90": 2}
 
 
 @dataclass(frozen=True, slots=True)
@@ -85,6 +92,9 @@ class NcuSpec:
     # SD42110 $SC_DEFAULT_FEED: the path feed before any F (0 as delivered: a G1/G2/G3 before
     # any F is then alarm 10860 "no feed programmed"); see InterpreterState
     default_feed_mm_s: float = 0.0
+    reset_plane: int = 17                     # MD20150 $MC_GCODE_RESET_VALUES, group 6 (17, 18, 19)
+    reset_diameter_mode: int = 0              # MD20150, group 29: 0 DIAMOF, 1 DIAMON, 2 DIAM90
+    diameter_axis: int = 0                    # MD20100 $MC_DIAMETER_AX_DEF: the transverse axis (X)
 
     @property
     def g642_contour_tolerance(self) -> bool:
@@ -162,8 +172,26 @@ class MachineSpec:
     cycle832: Cycle832Spec = field(default_factory=Cycle832Spec)
     #: values of system variables programs read (``"$AN_NCK_VERSION"``, ``"$MA_X[Z]"``)
     system_variables: tuple[tuple[str, float | str], ...] = ()
-    #: time an M6 tool change takes, chip to chip (``[tool_change] time_s``; 0: not simulated)
-    tool_change_s: float = 0.0
+    #: ``[machine] type``: "milling" or "turning" (a lathe: G18 and DIAMON at reset, MACHINE_TYPES)
+    kind: str = "milling"
+    #: ``[dynamics]``: per technology group (TECHNOLOGY_GROUPS) axis limits
+    dynamics: GroupDynamics | None = field(default=None, compare=False)
+    tool_change_s: float = 0.0   # an M6 tool change, chip to chip ([tool_change] time_s; 0: none)
+
+    def defines_group(self, group: int) -> bool:
+        """Whether the file says how technology group ``group`` (G group 59) runs."""
+        return group == 0 or (self.dynamics is not None and self.dynamics.defines(group))
+
+    def group_limits(self) -> np.ndarray:
+        """(group, [velocity, accel, jerk], axis) in mm and s (``[dynamics]``, below)."""
+        return group_limits(self.axes, self.dynamics)
+
+    def for_group(self, group: int) -> "MachineSpec":
+        """This machine with the axis limits of technology group ``group`` in ``[axes]``."""
+        if group == 0 or self.dynamics is None or not self.dynamics.given[group]:
+            return self
+        v, a, j = self.group_limits()[group]
+        return self.with_axes(max_velocity_mm_s=v, max_accel_mm_s2=a, max_jerk_mm_s3=j)
 
     def axis(self, name: str) -> AxisSpec:
         for a in self.axes:
@@ -284,7 +312,8 @@ _NCU_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
 )
 #: [ncu] keys that are not plain numbers (read in machine_from_dict)
 _NCU_OTHER_KEYS = ("smoothing_mode", "ignore_ovl_factor_for_adis", "reset_path_mode",
-                   "exact_pos_mode_g0_to_g1", "reset_compressor")
+                   "exact_pos_mode_g0_to_g1", "reset_compressor", "reset_plane",
+                   "reset_diameter_mode", "diameter_axis")
 #: the key of earlier versions that MD32310 replaced: the G64 velocity jump was
 #: ``corner_velocity_jump_factor`` x A t_IPO, it is A (max_accel_ovl_factor - 1) t_IPO per axis
 _OLD_CORNER_KEY = "corner_velocity_jump_factor"
@@ -295,9 +324,7 @@ _STRUCTURE_KEYS = (
      between(0.0, 1e4, "um/(m/s^2)"), um_per_m_s2_to_s2),
 )
 #: ``[tool_change]``: the machine builder's tool-change time (no 840D machine data holds it)
-_TOOL_CHANGE_KEYS = (
-    ("time_s", "tool_change_s", False, between(0.0, 1e4, "s"), float),
-)
+_TOOL_CHANGE_KEYS = (("time_s", "tool_change_s", False, between(0.0, 1e4, "s"), float),)
 
 #: key -> (usual low, usual high, unit, [(unit it may be in, factor to the key's unit)]):
 #: values of real machine tools (840D machine data defaults and manufacturers' data); outside
@@ -350,13 +377,17 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
     :class:`~ncsim.errors.MachineSpecError`."""
     c = Problems(file, MachineSpecError)
     c.unknown(data, "", {"machine", "axes", "ncu", "work_offsets", "structure", "cycle832",
-                         "system_variables", "tool_change"})
+                         "system_variables", "dynamics", "tool_change"})
     data = _read_old_corner_key(data, c)
 
     mtab = c.table(data, "machine", required=True)
-    c.unknown(mtab, "machine", {"name", "description"})
+    c.unknown(mtab, "machine", {"name", "description", "type"})
     name = c.string(mtab, "machine", "name", required="machine" in data)
     description = c.string(mtab, "machine", "description") or ""
+    kind = (c.string(mtab, "machine", "type") or "milling").lower()
+    if kind not in MACHINE_TYPES:
+        c.add("machine.type", f"must be one of {', '.join(MACHINE_TYPES)}, got {kind!r}")
+        kind = "milling"
 
     atab = c.table(data, "axes", required=True)
     axes = []
@@ -411,6 +442,15 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
             ncu_values["reset_compressor"] = COMPRESSOR_CODES[comp.upper()]
         else:
             c.add("ncu.reset_compressor", f"must be one of {', '.join(COMPRESSOR_CODES)}, got {comp!r}")
+    ncu_values.update(MACHINE_TYPES[kind])
+    for key, choices in (("reset_plane", PLANES), ("reset_diameter_mode", DIAMETER_MODES),
+                         ("diameter_axis", {a: i for i, a in enumerate(AXIS_NAMES)})):
+        text = c.string(ntab, "ncu", key)
+        if text is not None:
+            if text.upper() in choices:
+                ncu_values[key] = choices[text.upper()]
+            else:
+                c.add(f"ncu.{key}", f"must be one of {', '.join(choices)}, got {text!r}")
     g0g1 = c.integer(ntab, "ncu", "exact_pos_mode_g0_to_g1", minimum=0, maximum=3)
     if g0g1 is not None:
         ncu_values["exact_pos_mode_g0_to_g1"] = g0g1
@@ -425,27 +465,19 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
             if v is not None:
                 offsets.append((key, v))
 
-    stab = c.table(data, "structure")
-    c.unknown(stab, "structure", {k for k, *_ in _STRUCTURE_KEYS})
-    svalues = {}
-    for k, f, req, chk, conv in _STRUCTURE_KEYS:
-        v = c.number(stab, "structure", k, required=req, check=chk, convert=conv)
-        if v is not None:
-            svalues[f] = v
+    svalues = c.numbers(data, "structure", _STRUCTURE_KEYS)
 
     sysvars = _system_variables(c, c.table(data, "system_variables"))
-    ttab = c.table(data, "tool_change")
-    c.unknown(ttab, "tool_change", {k for k, *_ in _TOOL_CHANGE_KEYS})
-    tool_change = {f: v for k, f, req, chk, conv in _TOOL_CHANGE_KEYS
-                   if (v := c.number(ttab, "tool_change", k, required=req, check=chk,
-                                     convert=conv)) is not None}
+    dynamics = _read_dynamics(c, c.table(data, "dynamics"), axes)
+    tool_change = c.numbers(data, "tool_change", _TOOL_CHANGE_KEYS)
     c.raise_if_any()
     _unusual_values(c, {f"axes.{a}": atab[a] for a in AXIS_NAMES} | {"ncu": ntab})
     return MachineSpec(name=name, description=description, axes=tuple(axes),
                        ncu=NcuSpec(**ncu_values), source=file,
                        work_offsets_mm=tuple(offsets), structure=StructureSpec(**svalues),
                        warnings=tuple(c.warnings), cycle832=cycle832,
-                       system_variables=sysvars, **tool_change)
+                       system_variables=sysvars, kind=kind, dynamics=dynamics,
+                       **tool_change)
 
 
 _SYSVAR_KEY = re.compile(r"^\$[A-Z_][A-Z0-9_]*(\[[A-Z0-9_]+(,[A-Z0-9_]+)*\])?$")
@@ -590,7 +622,7 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
     if header:
         lines += [f"# {h}" if h else "#" for h in header.splitlines()]
         lines.append("")
-    lines += ["[machine]", f"name = {_q(spec.name)}"]
+    lines += ["[machine]", f"name = {_q(spec.name)}", f"type = {_q(spec.kind)}"]
     if spec.description:
         lines.append(f"description = {_q(spec.description)}")
     for a in spec.axes:
@@ -629,7 +661,11 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
               f"exact_pos_mode_g0_to_g1 = {n.exact_pos_mode_g0_to_g1}  # MD20552 $MC_EXACT_POS_MODE_G0_TO_G1",
               f"rapid_override_percent = {_f(share_to_percent(n.rapid_override))}  # rapid-traverse override in force",
               f"feed_override_percent = {_f(share_to_percent(n.feed_override))}  # feed override in force",
-              f"default_feed_mm_min = {_f(mm_s_to_mm_min(n.default_feed_mm_s))}  # SD42110 $SC_DEFAULT_FEED"]
+              f"default_feed_mm_min = {_f(mm_s_to_mm_min(n.default_feed_mm_s))}  # SD42110 $SC_DEFAULT_FEED",
+              f"reset_plane = \"G{n.reset_plane}\"  # MD20150 (group 6)",
+              f"reset_diameter_mode = {_q(_name_of(DIAMETER_MODES, n.reset_diameter_mode))}  # MD20150 (group 29)",
+              f"diameter_axis = {_q(AXIS_NAMES[n.diameter_axis])}  # MD20100 $MC_DIAMETER_AX_DEF"]
+    lines += _dump_dynamics(spec.dynamics)
     if spec.work_offsets_mm:
         lines += ["", "[work_offsets]"]
         for key, (x, y, z) in spec.work_offsets_mm:
@@ -661,9 +697,98 @@ def path_mode_name(code: int) -> str:
     return f"G{int(code)}"
 
 
+def _name_of(choices: dict, code: int) -> str:
+    return next(k for k, v in choices.items() if v == code)
+
+
 def _f(v: float) -> str:
     return repr(float(v))
 
 
 def _q(s: str) -> str:
     return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+# ---------------------------------------------------------------------------------------------
+# Technology-group dynamics (G group 59): the [dynamics] table
+# ---------------------------------------------------------------------------------------------
+# Job planning, "Dynamic response mode for path interpolation (DYNNORM ... DYNPREC)"; B2
+# "Acceleration": MD32300 $MA_MAX_AX_ACCEL[n] and MD32431 $MA_MAX_AX_JERK[n] are arrays indexed
+# by the group n (0 DYNNORM = [axes], 1 DYNPOS, 2 DYNROUGH, 3 DYNSEMIFIN, 4 DYNFINISH, 5
+# DYNPREC); the DYN... words and CYCLE832's machining type select it. ncsim also takes a velocity
+# per group (MD32000 is one value on the 840D: for a machine builder's per-group override).
+# [dynamics.<GROUP>.<axis>] keys default to the [axes] value; [dynamics] same_for_all_groups =
+# true declares one set for every group. A group given neither way runs with [axes], warned.
+TECHNOLOGY_GROUPS = ("DYNNORM", "DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "DYNPREC")
+ALL_GROUPS_KEY = "same_for_all_groups"
+_GROUP_KEYS = (("max_velocity_m_min", 0, between(1e-3, 1e6, "m/min"), m_min_to_mm_s),
+               ("max_accel_m_s2", 1, between(1e-3, 1e6, "m/s^2"), m_s2_to_mm_s2),
+               ("max_jerk_m_s3", 2, between(1e-3, 1e9, "m/s^3"), m_s3_to_mm_s3))
+
+
+@dataclass(frozen=True, slots=True)
+class GroupDynamics:
+    """``limits[g]``: (velocity mm/s, accel mm/s^2, jerk mm/s^3) x (X, Y, Z) of group g where
+    ``given[g]``; ``same_for_all``: the explicit one-set declaration."""
+
+    limits: np.ndarray            # (len(TECHNOLOGY_GROUPS), 3 quantities, 3 axes)
+    given: tuple[bool, ...]
+    same_for_all: bool = False
+
+    def defines(self, group: int) -> bool:
+        return group == 0 or self.same_for_all or self.given[group]
+
+
+def group_limits(axes, dynamics: GroupDynamics | None) -> np.ndarray:
+    """(group, quantity, axis): the given groups' values, every other group the ``[axes]``."""
+    one = [[getattr(a, f) for a in axes]
+           for f in ("max_velocity_mm_s", "max_accel_mm_s2", "max_jerk_mm_s3")]
+    table = np.repeat(np.array(one)[None], len(TECHNOLOGY_GROUPS), axis=0)
+    if dynamics is not None:
+        given = np.array(dynamics.given)
+        table[given] = dynamics.limits[given]
+    return table
+
+
+def _read_dynamics(c: Problems, table: dict, axes) -> GroupDynamics | None:
+    """The ``[dynamics]`` table over the ``[axes]`` values; None without one."""
+    if not table or len(axes) != len(AXIS_NAMES):
+        return None
+    c.unknown(table, "dynamics", {ALL_GROUPS_KEY, *TECHNOLOGY_GROUPS[1:]},
+              "unknown key (the groups are DYNPOS, DYNROUGH, DYNSEMIFIN, DYNFINISH, DYNPREC; "
+              "DYNNORM is [axes])")
+    same = bool(c.boolean(table, "dynamics", ALL_GROUPS_KEY))
+    limits, given = group_limits(axes, None), [False] * len(TECHNOLOGY_GROUPS)
+    for g, group in enumerate(TECHNOLOGY_GROUPS[1:], start=1):
+        gtab = c.table(table, group, prefix="dynamics")
+        if group not in table:
+            continue
+        if same:
+            c.add(f"dynamics.{group}", f"{ALL_GROUPS_KEY} = true says every group runs with the "
+                  f"[axes] values: give either it or per-group values")
+        c.unknown(gtab, f"dynamics.{group}", set(AXIS_NAMES))
+        given[g] = True
+        for i, axis in enumerate(AXIS_NAMES):
+            prefix = f"dynamics.{group}.{axis}"
+            atab = c.table(gtab, axis, prefix=f"dynamics.{group}")
+            c.unknown(atab, prefix, {k for k, *_ in _GROUP_KEYS})
+            for key, q, check, convert in _GROUP_KEYS:
+                v = c.number(atab, prefix, key, check=check, convert=convert)
+                if v is not None:
+                    limits[g, q, i] = v
+    limits.setflags(write=False)
+    return GroupDynamics(limits, tuple(given), same)
+
+
+def _dump_dynamics(dyn: GroupDynamics | None) -> list[str]:
+    if dyn is None:
+        return []
+    lines = ["", "[dynamics]", f"{ALL_GROUPS_KEY} = true"] if dyn.same_for_all else []
+    for g in (g for g in range(1, len(TECHNOLOGY_GROUPS)) if dyn.given[g]):
+        for i, axis in enumerate(AXIS_NAMES):
+            v, a, j = dyn.limits[g, :, i]
+            lines += ["", f"[dynamics.{TECHNOLOGY_GROUPS[g]}.{axis}]",
+                      f"max_velocity_m_min = {_f(mm_s_to_m_min(v))}",
+                      f"max_accel_m_s2 = {_f(mm_s2_to_m_s2(a))}  # MD32300 $MA_MAX_AX_ACCEL[{g}]",
+                      f"max_jerk_m_s3 = {_f(mm_s3_to_m_s3(j))}  # MD32431 $MA_MAX_AX_JERK[{g}]"]
+    return lines

@@ -24,7 +24,10 @@ modal columns say how the NC treats the segment and its junctions:
   ``N.. G1 X.. Y.. Z.. F..`` came since the last segment (SINUMERIK Job Planning "NC block
   compression": it interrupts the compressor, a new run starts with this block);
 * ``ctol_mm``: the programmed contour tolerance in force (CTOL= or CYCLE832), NaN when none
-  (the machine data MD33100/SD42465 apply).
+  (the machine data MD33100/SD42465 apply);
+* ``dyn_group``: the technology group (G group 59) whose axis dynamics apply: 0 DYNNORM,
+  1 DYNPOS, 2 DYNROUGH, 3 DYNSEMIFIN, 4 DYNFINISH, 5 DYNPREC (``machine.TECHNOLOGY_GROUPS``;
+  selected by the DYN... words and CYCLE832, resolved by ``plan.limits``).
 
 Where a segment comes from in the program's structure (for reports; the planner ignores
 them): ``block_number`` is the N number of its block (-1: none), ``tool`` and ``operation``
@@ -79,6 +82,7 @@ _COLUMNS: dict[str, tuple[type, tuple[int, ...], object]] = {
     "dwell_before_s": (np.float64, (), 0.0),
     "compressor": (np.int8, (), COMPOF),
     "ctol_mm": (np.float64, (), np.nan),
+    "dyn_group": (np.int8, (), 0),
     "block_number": (np.int32, (), -1),
     "tool": (np.int16, (), -1),
     "operation": (np.int16, (), -1),
@@ -113,6 +117,7 @@ class Segment:
     dwell_before_s: float
     compressor: int = COMPOF
     ctol_mm: float = float("nan")
+    dyn_group: int = 0
     block_number: int = -1
     tool: str | None = None
     operation: str | None = None
@@ -156,6 +161,7 @@ class Path:
     dwell_before_s: np.ndarray
     compressor: np.ndarray
     ctol_mm: np.ndarray
+    dyn_group: np.ndarray
     block_number: np.ndarray
     tool: np.ndarray
     operation: np.ndarray
@@ -234,6 +240,7 @@ class Path:
             dwell_before_s=float(self.dwell_before_s[i]),
             compressor=int(self.compressor[i]),
             ctol_mm=float(self.ctol_mm[i]),
+            dyn_group=int(self.dyn_group[i]),
             block_number=int(self.block_number[i]),
             tool=self.tool_of(i),
             operation=self.operation_of(i),

@@ -33,10 +33,12 @@ def same_path(a, b) -> bool:
 
 def test_cycle832_finish_plans_as_its_settings_written_by_hand(mikron):
     """CYCLE832(0.01,_FINISH,1) = G642 COMPCAD SOFT FFWON with CTOL 0.01 (the mikron's
-    [cycle832.finish]): the same path, the same limits, the same plan."""
+    [cycle832.finish]) and the technology group DYNFINISH: the same path, the same limits,
+    the same plan."""
     head = "G17 G90 G71 G94 G60\n"
     cycle = simulate("c.mpf", mikron, text=head + "CYCLE832(0.01,_FINISH,1)\n" + BODY)
-    hand = simulate("h.mpf", mikron, text=head + "G642 COMPCAD SOFT FFWON CTOL=0.01\n" + BODY)
+    hand = simulate("h.mpf", mikron,
+                    text=head + "G642 COMPCAD SOFT FFWON CTOL=0.01 DYNFINISH\n" + BODY)
     assert same_path(cycle.interpreted.path, hand.interpreted.path)
     assert same_path(cycle.path, hand.path)
     np.testing.assert_array_equal(cycle.motion.cap_mm_s, hand.motion.cap_mm_s)

@@ -239,7 +239,7 @@ def test_cycle832_and_modes_recorded_with_lines():
         ("DYNNORM", 8, 2)]
     assert [(m.args, m.line) for m in r.messages] == [(("finish",), 6)]
     warned = {(w.line, w.message.split(":")[0]) for w in r.warnings}
-    # no machine file: the default expansion is said; the dynamic response is not simulated
+    # no machine file: the default expansion is said; no [dynamics] for the technology group
     assert warned == {(2, "CYCLE832"), (2, "CYCLE832 selects DYNFINISH"), (5, "DYNFINISH")}
     assert not any("not simulated" in w.message and "CYCLE832(" in w.message for w in r.warnings)
 

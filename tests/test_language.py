@@ -29,9 +29,9 @@ def run(text: str, **kw):
 # ---- subprograms as the control finds them --------------------------------------------------
 
 def test_proc_after_a_comment_header_with_a_blank_before_its_parameters(tmp_path):
-    (tmp_path / "sub.spf").write_text("; ====\n; SUB: moves to (A, B)\n; ====\n\n"
-                                      "%_N_SUB_SPF\nN10 PROC SUB (REAL A, REAL B) SAVE DISPLOF\n"
-                                      "G1 X=A Y=B F100\nRET\n")
+    (tmp_path / "sub.spf").write_text("; ====\n; SUB: moves to (UA, UB)\n; ====\n\n"
+                                      "%_N_SUB_SPF\nN10 PROC SUB (REAL UA, REAL UB) SAVE DISPLOF\n"
+                                      "G1 X=UA Y=UB F100\nRET\n")
     (tmp_path / "main.mpf").write_text("EXTERN SUB(REAL, REAL)\nSUB(3, 4)\nSub(5, 6)\nM30\n")
     r = interpret_file(tmp_path / "main.mpf")
     assert ends(r) == [[3, 4, 0], [5, 6, 0]]
@@ -102,7 +102,7 @@ def test_var_parameters_are_the_callers_variables():
 
 
 def test_missing_arguments_take_the_types_default():
-    prog = "SUB(5)\nM30\nPROC SUB(REAL A, REAL B, INT C)\nG1 X=A Y=B Z=C+1 F100\nRET\n"
+    prog = "SUB(5)\nM30\nPROC SUB(REAL UA, REAL UB, INT UC)\nG1 X=UA Y=UB Z=UC+1 F100\nRET\n"
     assert ends(run(prog)) == [[5, 0, 1]]
 
 

@@ -21,7 +21,8 @@ What each file should give, decided from SOURCE.md and the 840D manuals:
 Hand checks (from the program text, not from ncsim): the hole circle of ``holes2_test.mpf``
 (HOLES2 with NUM=500 beside it, CYCLE82 drilling 30 mm from 2 mm above: 500 x 32 mm at F140),
 the warm-up cycles of the syilx7 programs (13 moves of 67.21 inch per cycle, the number of
-cycles from each call's duration) and the lathe's feed per revolution (F0.3 x S600).
+cycles from each call's duration) and the lathe program HRIADEL.MPF, its feed per revolution
+(F0.3 x S600) and its path in diameter programming, on the bundled lathe machine file.
 """
 from __future__ import annotations
 
@@ -70,8 +71,17 @@ def folder(shared):
     return shared / "data" / "real" / "programs-840d"
 
 
-def run(path, *options):
-    return CliRunner().invoke(cli, ["run", str(path), "--machine", "mikron", "--json", *options])
+#: the lathe programs (SOURCE.md) run on the bundled lathe, whose X is programmed as a diameter
+#: (type = "turning": DIAMON and G18 at reset); the others on the milling machine of the paper
+LATHE = ("tobosnap/HRIADEL.MPF", "tobosnap/sustruh_hriadel.mpf", "tobosnap/L1.SPF",
+         "tobosnap/L2.SPF", "tobosnap/L3.SPF", "tobosnap/L4.SPF", "hadielnemr/MAIN.MPF",
+         "hadielnemr/SUB_MAIN.MPF", "dubovikov/threadturn_test.mpf", "dubovikov/BAR_CENTR.SPF")
+
+
+def run(path, *options, machine=None):
+    if machine is None:
+        machine = "lathe" if f"{path.parent.name}/{path.name}" in LATHE else "mikron"
+    return CliRunner().invoke(cli, ["run", str(path), "--machine", machine, "--json", *options])
 
 
 @pytest.fixture(scope="module")
@@ -151,12 +161,38 @@ def test_warmup_cycles_by_hand(results, folder, name):
     assert feed["feed_programmed_mm_min"] == pytest.approx(300 * INCH_MM)     # F300 under G700
 
 
-def test_lathe_feed_per_revolution(results):
+def test_lathe_feed_per_revolution_in_diameter(results):
+    """HRIADEL.MPF by hand, X a diameter (the control moves X by half of each programmed X).
+    T1 (F0.3 x S600 = 180 mm/min), L1: Z2 -> Z-80, Z2 -> Z-30 twice = 146 mm.
+    T2 (F0.12 x S1200 = 144 mm/min), L2: 82 + 32 + the step X28 Z-28 -> X45 Z-30
+    (radial 8.5, axial 2); L3: chamfers X28 Z1 -> X30 Z0 (1, 1), Z-29 (29), X45 Z-31
+    (7.5, 2), Z-79 (48), X50 Z-81 (2.5, 2). T3 (F0.05 x S500 = 25 mm/min), L4: X50 -> X26 and
+    back, 12 mm each. At these feeds the ramps take milliseconds: time = length / feed."""
     s = json.loads(results["tobosnap/HRIADEL.MPF"].stdout)
-    # T1: S600 F0.3 (180 mm/min), T2: S1200 F0.12 (144), T3: S500 F0.05 (25)
-    assert sorted(f["feed_programmed_mm_min"] for f in s["feeds"]) == pytest.approx([25, 144, 180])
+    t2 = (82 + 32 + math.hypot(8.5, 2) + math.hypot(1, 1) + 29 + math.hypot(7.5, 2) + 48
+          + math.hypot(2.5, 2))
+    expected = {180: (3, 146.0), 144: (8, t2), 25: (2, 24.0)}
+    feeds = {round(f["feed_programmed_mm_min"]): f for f in s["feeds"]}
+    assert sorted(feeds) == sorted(expected)
+    for feed, (blocks, length) in expected.items():
+        assert feeds[feed]["blocks"] == blocks
+        assert feeds[feed]["length_mm"] == pytest.approx(length, rel=1e-9)
+        assert feeds[feed]["time_s"] == pytest.approx(length / feed * 60, rel=2e-3)
+    cutting_s = 146 / 180 * 60 + t2 / 144 * 60 + 24 / 25 * 60 + 1.5     # and L4's G4 F1.5
+    # the rapids (about 1.1 m of them) at 24-30 m/min with their ramps add seconds, not minutes
+    assert cutting_s < s["cycle_time_s"] < cutting_s + 10
+    assert s["approximations"] == {"M6": {"count": 3, "reason": "tool change times are not "
+                                                                "simulated"}}
+
+
+def test_lathe_programs_move_x_by_half_the_diameter(folder):
+    from ncsim.machine import load_machine
+    from ncsim.nc.interpret import interpret_file
+    r = interpret_file(folder / "tobosnap" / "HRIADEL.MPF", load_machine("lathe"))
+    x = [float(s.end_mm[0]) for s in r.path.segments()]
+    assert max(x) == 60.0 and min(x) == 13.0            # G0 X120 at the end; L4's groove X26
     # CYCLE95 has no source: the stock removal is left out and says so
-    s2 = json.loads(results["tobosnap/sustruh_hriadel.mpf"].stdout)
+    s2 = json.loads(run(folder / "tobosnap" / "sustruh_hriadel.mpf").stdout)
     assert s2["approximations"]["cycle"]["count"] == 1
 
 

@@ -13,7 +13,8 @@ planning, "Subprogram technique", "Modal subprogram call (MCALL)"):
   A subprogram that is nowhere is an error naming the folders searched, or with
   ``--missing-subprograms warn`` a warning (no motion, the result is approximate);
 * a PROC's parameters are passed by value, ``VAR`` ones by reference (the caller's variable or
-  array itself); ``SAVE`` restores the modal G functions and frames at the return; nesting is
+  array itself); a parameter named like an NC address (``B``, ``X1``) is rejected at the PROC
+  line (:func:`ncsim.nc.variables.check_name`); ``SAVE`` restores the modal G functions and frames at the return; nesting is
   limited to 16 levels (the default of the 840D's machine data);
 * ``MCALL NAME(args)`` calls NAME after every later block with path motion, except inside the
   modal subprogram and what it calls; ``MCALL`` alone ends it;
@@ -37,10 +38,11 @@ from ncsim.nc import program as P
 from ncsim.nc.context import CallFrame
 from ncsim.nc.expr import Where, format_value
 from ncsim.nc.flow import Unit, is_proc, split_units
-from ncsim.nc.modal import (CYCLE832_DYNAMICS, CYCLE832_TYPE_NAMES, M_END, M_END_RESET,
-                            M_RETURN)
+from ncsim.nc.modal import (CYCLE832_DYNAMICS, CYCLE832_TYPE_NAMES, DYNAMIC_COMMANDS, M_END,
+                            M_END_RESET, M_RETURN)
 from ncsim.nc.parse import parse_text, read_program_text
 from ncsim.nc.settings import HANDLED_COMMANDS, Settings
+from ncsim.nc.variables import check_name
 
 MAX_CALL_DEPTH = 16          # subprogram nesting (the 840D allows 16 levels with its default MD)
 MAX_NAME_CHARS = 255         # longer words are no file name (the 840D allows 24 characters)
@@ -124,6 +126,10 @@ class Calls:
         if len(state.stack) >= MAX_CALL_DEPTH:
             raise Where(unit.file, 0).error(f"subprogram nesting deeper than {MAX_CALL_DEPTH} "
                                             f"levels", 0)
+        if unit.params:   # a parameter named like an address (B, X1) is no identifier
+            where = Where(unit.file, unit.items[0].line)
+            for param in unit.params:
+                check_name(where, param.name, param.col, f"PROC {unit.name}: parameter")
         inside_modal = modal_call or (bool(state.stack) and state.stack[-1].modal_call)
         fr = CallFrame(unit, state.out.builder.file_index(unit.file),
                        pc=1 if is_proc(unit) else 0, args=args, repeats_left=repeats,
@@ -147,13 +153,15 @@ class Calls:
         (Job planning, "Subprograms with SAVE mechanism"); F and S are not restored."""
         st = self.state.st
         return ((st.motion, st.plane, st.incremental, st.units, st.cp_mode, st.stop_window,
-                 st.accel_mode, st.ffw, st.radius_comp, st.settable_mm, st.prog_frame),
+                 st.accel_mode, st.ffw, st.radius_comp, st.settable_mm, st.prog_frame,
+                 st.diameter, st.dyn_group),
                 (self.state.feed_type, self.state.settable_code))
 
     def _restore(self, saved) -> None:
         state, st = self.state, self.state.st
         (st.motion, st.plane, st.incremental, st.units, st.cp_mode, st.stop_window,
-         st.accel_mode, st.ffw, st.radius_comp, st.settable_mm, st.prog_frame) = saved[0]
+         st.accel_mode, st.ffw, st.radius_comp, st.settable_mm, st.prog_frame,
+         st.diameter, st.dyn_group) = saved[0]
         state.feed_type, state.settable_code = saved[1]
         st.set_frames()
 
@@ -179,7 +187,7 @@ class Calls:
         if path is None:
             return None
         text = read_program_text(path)
-        program = parse_text(text, str(path), fast=state.fast)
+        program = parse_text(text, str(path), fast=state.fast, macros=state.macros)
         state.programs[str(path)] = program
         self.file_dirs[str(path)] = path.parent
         state.add_lines(program.n_lines)
@@ -336,7 +344,9 @@ class Calls:
         predefined names _OFF, _FINISH, _SEMIFIN, _ROUGH and the _ORI_ forms), its tens digit 1
         makes S_OTOL the orientation tolerance (OTOL, recorded); ``CYCLE832()`` deselects. What a
         machining type switches -- G642/G645, COMPCAD..., SOFT, FFWON -- is the machine
-        builder's CUST_832: the machine file's ``[cycle832]`` table (:meth:`Settings.cycle832`).
+        builder's CUST_832: the machine file's ``[cycle832]`` table (:meth:`Settings.cycle832`);
+        its technology group (DYNNORM, DYNFINISH, DYNSEMIFIN, DYNROUGH, DYNPREC by type) runs
+        with the machine file's ``[dynamics]`` (:meth:`Settings.technology_group`).
         Higher digits (old packed codes such as 102001, the Top Surface digit) are not decoded:
         the machining type is simulated and a warning says so. Tolerance 0 deselects (a
         secondary source, warned)."""
@@ -382,11 +392,8 @@ class Calls:
             state.st.otol_deg = math.nan
         ctx.record(CYCLE832_DYNAMICS[units], ())
         notes = state.cycle832_notes
-        if units != 0 and "dynamics" not in notes:
-            notes.add("dynamics")
-            ctx.warn("CYCLE832", f"CYCLE832 selects {CYCLE832_DYNAMICS[units]}: the dynamic "
-                     f"response of this technology group (MD20600 ff. per group) is not "
-                     f"simulated, the machine file's one set of dynamics is used", col)
+        self.settings.technology_group(ctx, DYNAMIC_COMMANDS.index(CYCLE832_DYNAMICS[units]),
+                                       col, "CYCLE832 selects ")
         if not spec.from_file and "defaults" not in notes:
             notes.add("defaults")
             ctx.warn("CYCLE832", "CYCLE832: the machine file has no [cycle832] table; the usual "

@@ -2,9 +2,10 @@
 
 What the block path does one block at a time is done here with numpy over the run: modal G and
 F are forward-filled, G91 positions are cumulative sums, the run's one frame (it cannot change
-inside a run of plain blocks) is applied to all end points at once, and arcs go through the same
-:func:`~ncsim.nc.moves.arc_columns` kernel and the same circle end-point check (MD21000/MD21010)
-as in the block path. No object is made per block.
+inside a run of plain blocks) is applied to all end points at once, the transverse axis's
+diameter programming (it cannot change inside a run either) is a factor on its column, and arcs
+go through the same :func:`~ncsim.nc.moves.arc_columns` kernel and the same circle end-point
+check (MD21000/MD21010) as in the block path. No object is made per block.
 
 :meth:`ColumnPath.run` takes a run only when it cannot raise or warn: a value out of range, a
 feed that is not positive, a move without feed, I J K on a line, a circle without centre or with
@@ -20,6 +21,7 @@ import numpy as np
 from ncsim.geometry import PLANE_AXES
 from ncsim.nc import program as P
 from ncsim.nc.context import WORD_VALUE_LIMIT
+from ncsim.nc.diameter import diameter_applies
 from ncsim.nc.frames import arc_normal
 from ncsim.nc.moves import MIN_LINE_MM, arc_columns, circle_error_mm, circle_tolerance_mm
 from ncsim.path import ARC
@@ -91,7 +93,7 @@ class ColumnPath:
         m = len(rows)
         wcs_end = np.empty((m, 3))
         for a in range(3):
-            v = vals[rows, a] * scale
+            v = vals[rows, a] * (scale * self._diameter_factor(a))
             p = present[rows, a]
             if st.incremental:
                 d = np.where(p, v, 0.0)
@@ -113,6 +115,15 @@ class ColumnPath:
         keep = is_arc | (cols["length_mm"] > MIN_LINE_MM)
         rapid = motion[rows] == 0
         return run.first_line + rows, keep, cols, rapid, feed[rows], wcs_end, mcs_end
+
+    def _diameter_factor(self, axis: int) -> float:
+        """0.5 on the transverse axis under diameter programming (a plain run's X has no
+        AC/IC, so G90/G91 decides: :func:`ncsim.nc.diameter.diameter_applies`), else 1. Plain
+        centres (I J K without AC) stay radius values."""
+        st = self.st
+        if axis == self.state.diameter_axis and diameter_applies(st.diameter, st.incremental):
+            return 0.5
+        return 1.0
 
     def _arcs(self, run, rows, motion, is_arc, present, wcs_start, mcs_start, mcs_end, cols) -> bool:
         st = self.st
@@ -173,7 +184,7 @@ class ColumnPath:
             exact_stop=st.cp_mode == 60, stop_window=st.stop_window, cp_mode=st.cp_mode,
             adis_mm=np.where(rapid, st.adispos_mm, st.adis_mm), accel_mode=st.accel_mode,
             ffw=st.ffw, stop_before=stop, dwell_before_s=dwell,
-            compressor=compressor, ctol_mm=st.ctol_mm)
+            compressor=compressor, ctol_mm=st.ctol_mm, dyn_group=st.dyn_group)
         last = k - 1
         st.pending_stop = False
         st.pending_dwell_s = 0.0

@@ -52,8 +52,7 @@ APPROXIMATE_KINDS = {
     "cycle": "machining cycles without their source are not simulated (no motion)",
     "missing subprogram": "missing subprograms are skipped (no motion)",
     "MCALL": "modal calls of cycles without their source are not executed",
-    "CYCLE832": "parts of CYCLE832 are not simulated (the dynamic response of its technology "
-                "group, higher digits of an old code)",
+    "CYCLE832": "parts of CYCLE832 are not simulated (higher digits of an old code)",
     "G644": "G644 is simulated as G642",
     "CYCLE800": "CYCLE800 swivelling is not simulated",
     "rotary axis": "rotary axis motion is not simulated",
@@ -64,8 +63,8 @@ APPROXIMATE_KINDS = {
     "dwell": "a G4 S dwell without spindle speed is taken as 0 s",
     "spindle positioning": "spindle positioning (SPOS) times are not simulated",
     "system variable": "assignments to system variables are not simulated",
-    **{name: "dynamic response modes are not simulated" for name in (
-        "DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "DYNPREC")},
+    **{name: "technology groups the machine file does not define run with its [axes] dynamics"
+       for name in ("DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "DYNPREC")},
     **{name: f"{what} ({name}) is not simulated" for name, what in COMMANDS_NOT_SIMULATED.items()},
 }
 
@@ -213,10 +212,14 @@ class InterpreterState:
         ncu = machine.ncu if machine is not None else None
         self.circle_const_mm = ncu.circle_error_const_mm if ncu else DEFAULT_CIRCLE_ERROR_CONST_MM
         self.circle_factor = ncu.circle_error_factor if ncu else DEFAULT_CIRCLE_ERROR_FACTOR
-        # never replaced: collaborators keep a reference; groups 10 (path mode) and 30
-        # (compressor) start at the machine's reset values (MD20150 $MC_GCODE_RESET_VALUES)
-        self.st = (ModalState(cp_mode=ncu.reset_path_mode, compressor=ncu.reset_compressor)
+        # never replaced: collaborators keep a reference; groups 10 (path mode), 30
+        # (compressor), 6 (plane) and 29 (diameter programming) start at the machine's reset
+        # values (MD20150 $MC_GCODE_RESET_VALUES)
+        self.st = (ModalState(cp_mode=ncu.reset_path_mode, compressor=ncu.reset_compressor,
+                              plane=ncu.reset_plane, diameter=ncu.reset_diameter_mode)
                    if ncu else ModalState())
+        #: MD20100 $MC_DIAMETER_AX_DEF: the transverse axis (0 = X), :mod:`ncsim.nc.diameter`
+        self.diameter_axis = ncu.diameter_axis if ncu else 0
         # the reset values CYCLE832's deselection returns to (MD20150 $MC_GCODE_RESET_VALUES)
         self.reset_values = (self.st.cp_mode, self.st.accel_mode, self.st.ffw)
         self.cycle832_notes: set = set()   # one-time CYCLE832 warnings already given
@@ -238,6 +241,7 @@ class InterpreterState:
         self.warnings = Warnings()
         self.recorded: list[RecordedCall] = []
         self.units: dict = {}              # name -> ncsim.nc.flow.Unit (PROCs and files)
+        self.macros: dict = {}             # DEFINE ... AS of the definitions files
         self.programs: dict = {}           # file -> its parsed Program (ncsim.nc.outline)
         self.out: PathOutput | None = None
         self.ended = False

@@ -14,19 +14,26 @@
   (:mod:`ncsim.nc.variables`, :mod:`ncsim.nc.sysvars`); a bare array name is only an argument
   (for a VAR parameter), anything else done with it is an error;
 * ``ISAXIS(n)`` is 1 for the geometry axes 1..3; ``LN EXP MINVAL MAXVAL`` as their names say,
-  ``BOUND(min, max, x)`` limits x to [min, max].
+  ``BOUND(min, max, x)`` limits x to [min, max];
+* ``AXNAME("X")`` is the axis a string names and ``AXSTRING(axis)`` the string of an axis
+  (Job planning, "Axis functions (AXNAME, AX, SPI, AXTOSPI, ISAXIS, AXSTRING, MODAXVAL)"): an
+  axis value is its name; a call argument that is a bare axis identifier and no variable is
+  that axis (``FGROUP(X, Y)``, ``SUB(Z)``).
 
 Every error is an :class:`~ncsim.errors.NcSemanticError` at the column of the offending node.
 """
 from __future__ import annotations
 
 import math
+import re
 from typing import Callable, Protocol
 
 from ncsim.nc import program as P
 from ncsim.errors import NcSemanticError
 
 Value = float | str
+#: an axis identifier of the channel (X, Y, Z, A, B, C, U, V, W, optionally with digits: X1)
+_AXIS_IDENTIFIER = re.compile(r"^[XYZABCUVW][0-9]*$")
 
 
 class Scope(Protocol):
@@ -159,6 +166,8 @@ def evaluate_arg(expr, scope: Scope, where: Where) -> Value:
         value = scope.read_var(expr.name)
         if isinstance(value, ArrayRef):
             return value
+        if value is None and _AXIS_IDENTIFIER.match(expr.name):
+            return expr.name
     return evaluate(expr, scope, where)
 
 
@@ -241,6 +250,8 @@ def _call(expr: P.Func, scope: Scope, where: Where) -> Value:
     if name in ("AC", "IC"):
         raise where.error(f"{name}() is only allowed as the whole value of an axis or centre word",
                           expr.col)
+    if name in ("AXNAME", "AXSTRING"):
+        return _axis_function(expr, scope, where)
     if name not in FUNCTIONS:
         raise where.error(f"unknown function {name}()", expr.col)
     n_args, fn = FUNCTIONS[name]
@@ -252,3 +263,16 @@ def _call(expr: P.Func, scope: Scope, where: Where) -> Value:
         return float(fn(*args))
     except (ValueError, OverflowError) as exc:
         raise where.error(f"{name}(): {exc}", expr.col) from None
+
+
+def _axis_function(expr: P.Func, scope: Scope, where: Where) -> str:
+    """``AXNAME("X")``: the axis a string names; ``AXSTRING(X)``: an axis as a string. Axis
+    values are their names, so both give the name, checked to be an axis identifier."""
+    if len(expr.args) != 1 or expr.args[0] is None:
+        raise where.error(f"{expr.name}() takes 1 argument, got {len(expr.args)}", expr.col)
+    arg = expr.args[0]
+    value = evaluate_arg(arg, scope, where) if expr.name == "AXSTRING" else evaluate(arg, scope, where)
+    if not isinstance(value, str) or not _AXIS_IDENTIFIER.match(value.strip().upper()):
+        raise where.error(f"{expr.name}(): {format_value(value)!r} is no axis name of the "
+                          f"channel (X, Y, Z, A, B, C, U, V, W)", _col(arg))
+    return value.strip().upper()

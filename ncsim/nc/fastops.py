@@ -20,8 +20,9 @@ Semantics stay those of the block path, by construction and by test
   path, which raises the located error. Intermediate overflows that a later operator would hide
   (``x / inf``, a comparison, a function) are checked where they can be hidden;
 * an op decides before it changes anything whether it can do the block (a G1 without feed, a
-  value out of range, G95, an active MCALL ... send the block to the block path), except an
-  assignment block, whose assignments take effect one by one as on the control: an assignment
+  value out of range, G95, an active MCALL, the transverse axis under diameter programming ...
+  send the block to the block path), except an assignment block, whose assignments take
+  effect one by one as on the control: an assignment
   the compiled code cannot do is done by the block path's evaluator and ``assign``;
 * blocks that are none of: empty (labels, comments), R and numeric variable assignments,
   G0/G1 with X Y Z F, a jump (GOTO*, IF .. GOTO*, several of them), IF/ELSE/ENDIF, WHILE/
@@ -592,7 +593,9 @@ class OpCompiler(_FlowOps):
         src += (f"    except Exception:\n        return generic(fr, {pc})\n"
                 f"    motion = {'st.motion' if g is None else g}\n"
                 f"    if motion > 1 or state.modal_call is not None or "
-                f"state.feed_type not in (94, 971):\n        return generic(fr, {pc})\n")
+                f"state.feed_type not in (94, 971)"
+                + (" or st.diameter" if self.state.diameter_axis in axes else "") +
+                f":\n        return generic(fr, {pc})\n")
         if feed is not None:
             src += "    feed = mm_min_to_mm_s(fv * st.feed_scale)\n"
         if axes:

@@ -101,6 +101,7 @@ from ncsim.nc.context import (BlockContext, InterpreterState, InterpretOptions, 
 from ncsim.nc.expr import Where
 from ncsim.nc.fastops import OpCompiler
 from ncsim.nc.flow import Flow, split_units
+from ncsim.nc.macros import definition_macros
 from ncsim.nc.modal import COMPRESSOR_COMMANDS, DYNAMIC_COMMANDS
 from ncsim.nc.moves import Moves
 from ncsim.nc.outline import label_path
@@ -166,7 +167,8 @@ def interpret_text(text: str, file: str = "<string>", machine: MachineSpec | Non
                                definitions=tuple(FsPath(d) for d in definitions),
                                block_budget=block_budget, fast=fast, skip_blocks=skip_blocks)
     interp = Interpreter(machine, options, setup_offsets, search_dir)
-    program = parse_text(text, file, fast=fast)
+    interp.state.macros = definition_macros(options.definitions)
+    program = parse_text(text, file, fast=fast, macros=interp.state.macros)
     try:
         return interp.run(program)
     finally:

@@ -20,6 +20,7 @@ pole (3, non-modal)       G110 G111 G112 (with AP= RP=)                   simula
 tool radius comp (7)      G40; G41 G42                                    G41/G42 warned
 corner behaviour (18)     G450 G451                                       no effect without G41/G42
 working area (3)          G25 G26                                         warned
+diameter (29)             DIAMOF DIAMON DIAM90 DIAMCYCOF (commands)       simulated (nc.diameter)
 ========================  ==============================================  =====================
 
 Other G functions that change the path (threads, tapping, polar coordinates, approach cycles)
@@ -93,6 +94,8 @@ ACCEL_COMMANDS = {"SOFT": SOFT, "BRISK": BRISK, "DRIVE": DRIVE}
 COMPRESSOR_CODES = {"COMPOF": COMPOF, "COMPON": COMPON, "COMPCURV": COMPCURV,
                     "COMPCAD": COMPCAD, "COMPSURF": COMPSURF}
 COMPRESSOR_COMMANDS = tuple(COMPRESSOR_CODES)
+#: G group 59, the technology groups of the dynamic response (their index is the Path's
+#: ``dyn_group`` and the machine data's array index, machine.TECHNOLOGY_GROUPS)
 DYNAMIC_COMMANDS = ("DYNNORM", "DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "DYNPREC")
 
 # CYCLE832 "High speed settings" (SINUMERIK NC programming manual 12/2019, "Programming cycles
@@ -168,6 +171,8 @@ class ModalState:
     last_segment: tuple | None = None    # (kind, start, end, center, normal, radius, sweep, helix)
     pending_stop: bool = False           # stop before the next segment
     pending_dwell_s: float = 0.0         # dwell before the next segment
+    diameter: int = 0                    # group 29: DIAMOF DIAMON DIAM90 DIAMCYCOF (nc.diameter)
+    dyn_group: int = 0                   # group 59: index of DYNAMIC_COMMANDS (DYNNORM ...)
     compress_break: bool = False         # an instruction since the last segment interrupts the
                                          # compressor (the next segment starts a new group)
 

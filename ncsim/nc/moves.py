@@ -3,7 +3,8 @@
 840D semantics (Programming Guide Fundamentals, "Programming motion commands", "Positional
 data", "Path action"):
 
-* G0/G1 straight lines (G1 needs a feed); X=AC(..)/X=IC(..) per axis over G90/G91;
+* G0/G1 straight lines (G1 needs a feed); X=AC(..)/X=IC(..) per axis over G90/G91; the
+  transverse axis in diameter (DIAMON, DIAM90, X=DAC(..) ...: :mod:`ncsim.nc.diameter`);
 * G2/G3 circles with the centre I J K (incremental to the start point unless I=AC(..), only the
   in-plane components count; TURN= adds full turns), or the radius CR= (negative: more than a
   half circle), or the opening angle AR=; an axis perpendicular to the plane makes a helix;
@@ -44,6 +45,7 @@ import numpy as np
 
 from ncsim.geometry import (PLANE_AXES, center_from_opening_angle, center_from_radius, center_tangential,
                             circle_through_points, plane_normal)
+from ncsim.nc.diameter import VALUE_MODES, diameter_applies, transverse_value
 from ncsim.nc.expr import format_value
 from ncsim.nc.frames import arc_normal
 from ncsim.nc.modal import CIP, MOTION_NAMES
@@ -291,26 +293,34 @@ class Moves:
                             f"machine's default feed SD42110 is the machine-file key "
                             f"ncu.default_feed_mm_min)", _motion_col(ctx))
 
+    def _axis_value(self, i: int, value: float, mode) -> tuple[bool, float]:
+        """(incremental, mm) of a programmed value of axis ``i``: G90/G91 or AC/IC, and on the
+        transverse axis diameter programming (:mod:`ncsim.nc.diameter`)."""
+        st = self.st
+        if i == self.state.diameter_axis and (st.diameter or mode in VALUE_MODES):
+            inc, factor = transverse_value(mode, st.incremental, st.diameter)
+            return inc, value * st.length_scale * factor
+        return mode == "IC" or (mode is None and st.incremental), value * st.length_scale
+
     def _targets(self, ctx, suppressed: bool):
         """End point of the block in WCS and MCS (lists of 3 floats)."""
         st = self.st
-        scale = st.length_scale
         axes = ctx.axes
         if suppressed:
             mcs = list(st.pos_mcs)
             for i, a in enumerate(AXES):
                 if a in axes:
                     value, mode, _ = axes[a]
-                    inc = mode == "IC" or (mode is None and st.incremental)
-                    mcs[i] = mcs[i] + value * scale if inc else value * scale
+                    inc, mm = self._axis_value(i, value, mode)
+                    mcs[i] = mcs[i] + mm if inc else mm
             return list(st.frame.inverse_apply(*mcs)), mcs
         wcs = []
         for i, a in enumerate(AXES):
             base = st.pos_wcs[i]
             if a in axes:
                 value, mode, _ = axes[a]
-                inc = mode == "IC" or (mode is None and st.incremental)
-                wcs.append(base + value * scale if inc else value * scale)
+                inc, mm = self._axis_value(i, value, mode)
+                wcs.append(base + mm if inc else mm)
             else:
                 wcs.append(base + 0.0 if st.incremental else base)
         return wcs, list(st.frame.apply(*wcs))
@@ -403,6 +413,9 @@ class Moves:
                 center[axis] = start_wcs[axis] + 0.0
             else:
                 value, mode, _ = word
+                if mode == "AC" and axis == self.state.diameter_axis and \
+                        diameter_applies(self.st.diameter, False):
+                    value *= 0.5       # I=AC(..) on the transverse axis is a diameter
                 center[axis] = value * scale if mode == "AC" else start_wcs[axis] + value * scale
         return center
 
@@ -450,13 +463,12 @@ class Moves:
         if not ctx.axes or not ctx.inter:
             raise ctx.error("CIP needs an end point and an intermediate point (I1= J1= K1=)", col)
         end_wcs, end_mcs = self._targets(ctx, _suppressed(ctx))
-        scale = st.length_scale
         inter = list(st.pos_wcs)
         for i, key in enumerate(INTER):
             if key in ctx.inter:
                 value, mode, _ = ctx.inter[key]
-                inc = mode == "IC" or (mode is None and st.incremental)
-                inter[i] = st.pos_wcs[i] + value * scale if inc else value * scale
+                inc, mm = self._axis_value(i, value, mode)
+                inter[i] = st.pos_wcs[i] + mm if inc else mm
         found = circle_through_points(st.pos_mcs, st.frame.apply(*inter), end_mcs)
         if found is None:
             raise ctx.error("CIP: start, intermediate and end point lie on one line", col)
@@ -522,7 +534,7 @@ class Moves:
             "dwell_before_s": st.pending_dwell_s,
             "compressor": 0 if kind != LINE else (-st.compressor if st.compress_break
                                                    else st.compressor),
-            "ctol_mm": st.ctol_mm})
+            "ctol_mm": st.ctol_mm, "dyn_group": st.dyn_group})
         st.pending_stop = False
         st.pending_dwell_s = 0.0
         st.compress_break = False

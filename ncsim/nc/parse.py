@@ -444,9 +444,13 @@ def normalize_newlines(text: str) -> str:
     return text.replace("\r\n", "\n").replace("\r", "\n") if "\r" in text else text
 
 
-def parse_text(text: str, file: str = "<string>", *, fast: bool = True) -> P.Program:
-    """Parse a whole program. ``fast`` reads plain lines with :mod:`ncsim.nc.fastparse`."""
-    text = normalize_newlines(text)
+def parse_text(text: str, file: str = "<string>", *, fast: bool = True,
+               macros: dict[str, str] | None = None) -> P.Program:
+    """Parse a whole program. ``fast`` reads plain lines with :mod:`ncsim.nc.fastparse`;
+    ``macros`` (of a definitions file) and the program's own DEFINEs are expanded first
+    (:mod:`ncsim.nc.macros`)."""
+    from ncsim.nc.macros import expand_macros
+    text, _ = expand_macros(normalize_newlines(text), file, macros, upper_code)
     comments = operation_comments(text)
     if fast:
         from ncsim.nc.fastparse import scan_program

@@ -15,7 +15,10 @@
   (mm/rev x rev/min) while the spindle turns (M3/M4), G97 as G95 and G971 as G94 without a G96
   before (Programming Manual Fundamentals, "Feedrate (G93, G94, G95, F)"); F keeps its value
   when the feed type changes and is read in the new unit;
-* SBLOF/SBLON/DISPLOF/DISPLON (single block, display) and SETMS change nothing that takes time;
+* SBLOF/SBLON/DISPLOF/DISPLON (single block, display), SETMS and DRFOF (deletes handwheel
+  offsets, which ncsim has none of) change nothing that takes time;
+* DIAMOF/DIAMON/DIAM90/DIAMCYCOF select diameter programming of the transverse axis (G group
+  29, :mod:`ncsim.nc.diameter`);
 * ADIS/ADISPOS are the G641 rounding distances, CTOL the contour tolerance of the compressor
   and of G642-G645 rounding, OTOL the orientation tolerance (recorded); a negative value deletes
   them (Job Planning "CTOL, OTOL, ATOL"); SOFT/BRISK/DRIVE change the acceleration mode (and
@@ -23,7 +26,9 @@
 * COMPON/COMPCURV/COMPCAD/COMPSURF/COMPOF select the compressor (:mod:`ncsim.plan.compressor`;
   COMPSURF is simulated as COMPCAD); G644 is simulated as G642 (warned);
 * :meth:`Settings.cycle832` is what CYCLE832 switches (the machine file's ``[cycle832]`` table);
-* DYN*, TRAORI and the like are recorded with a warning: they are not simulated.
+* DYNNORM..DYNPREC select the technology group whose axis dynamics apply (the machine file's
+  ``[dynamics]``; a group it does not define is warned); TRAORI and the like are recorded with
+  a warning: they are not simulated.
 
 A new command word (a name without ``=``) is handled in :meth:`Settings.commands` and added to
 :data:`HANDLED_COMMANDS`, or it would be taken for a subprogram call.
@@ -32,6 +37,7 @@ from __future__ import annotations
 
 import math
 
+from ncsim.nc.diameter import DIAMETER_COMMANDS
 from ncsim.nc.expr import format_value
 from ncsim.nc.frames import Frame, mirroring, rotation_in_plane, rotation_rpy, scaling, translation
 from ncsim.nc.modal import (ACCEL_COMMANDS, COMMANDS_NOT_SIMULATED, COMPRESSOR_CODES,
@@ -44,14 +50,16 @@ from ncsim.units import mm_min_to_mm_s
 _ZERO3 = (0.0, 0.0, 0.0)
 _FRAME_COMMANDS = ("TRANS", "ATRANS", "ROT", "AROT", "SCALE", "ASCALE", "MIRROR", "AMIRROR")
 _TRANSFORMATIONS = ("TRAORI", "TRANSMIT", "TRACYL", "TRAANG")
-_NO_TIME_COMMANDS = ("SBLOF", "SBLON", "DISPLOF", "DISPLON", "SETMS")
+# DRFOF deletes the handwheel (DRF) offsets (Fundamentals, "Frames": "Deselecting the frame
+# (G53, G153, SUPA, G500)", DRFOF): ncsim has none to delete
+_NO_TIME_COMMANDS = ("SBLOF", "SBLON", "DISPLOF", "DISPLON", "SETMS", "DRFOF")
 
 # Command words a block handles itself; any other name is a subprogram call.
 HANDLED_COMMANDS = frozenset(
     set(ACCEL_COMMANDS) | set(COMPRESSOR_COMMANDS) | set(DYNAMIC_COMMANDS) | set(_TRANSFORMATIONS)
     | set(_FRAME_COMMANDS)
     | set(COMMANDS_NOT_SIMULATED) | set(UNSUPPORTED_MOTION)
-    | set(_NO_TIME_COMMANDS)
+    | set(_NO_TIME_COMMANDS) | set(DIAMETER_COMMANDS)
     | {"FFWON", "FFWOF", "STOPRE", "TRAFOOF", "FNORM", "CFC", "MCALL", "SUPA", "RET", "GOTOS"})
 
 
@@ -266,9 +274,7 @@ class Settings:
                 st.compressor = COMPRESSOR_CODES[name]
             elif name in DYNAMIC_COMMANDS:
                 ctx.record(name, ())
-                if name != "DYNNORM":
-                    ctx.warn(name, f"{name}: the dynamic response mode is recorded but not "
-                             f"simulated (the machine file's one set of dynamics is used)", col)
+                self.technology_group(ctx, DYNAMIC_COMMANDS.index(name), col)
             elif name in _TRANSFORMATIONS:
                 ctx.record(name, ())
                 ctx.warn("transformation", f"{name} kinematic transformation is not simulated "
@@ -279,6 +285,22 @@ class Settings:
                 raise ctx.unsupported(f"{name} ({UNSUPPORTED_MOTION[name]}) is not simulated", col)
             elif name == "SETMS":
                 self.state.master_spindle = 1
+            elif name in DIAMETER_COMMANDS:   # group 29: nc.diameter
+                st.diameter = DIAMETER_COMMANDS[name]
+
+    def technology_group(self, ctx, group: int, col: int, what: str = "") -> None:
+        """Select technology group ``group`` (G group 59, DYNNORM..DYNPREC): its axis dynamics
+        apply from the next block on (``Path.dyn_group``, ``machine.TECHNOLOGY_GROUPS``). A group the
+        machine file does not define runs with its ``[axes]`` values, warned (the result is
+        approximate)."""
+        self.st.dyn_group = group
+        machine = self.state.machine
+        name = DYNAMIC_COMMANDS[group]
+        if group == 0 or (machine is not None and machine.defines_group(group)):
+            return
+        ctx.warn(name, f"{what}{name}: the machine file defines no dynamics for this "
+                 f"technology group ([dynamics.{name}.X] ... or [dynamics] "
+                 f"same_for_all_groups = true): its [axes] values are used", col)
 
     # ---- CYCLE832 -----------------------------------------------------------------------------
 

@@ -16,7 +16,17 @@ variables (DEF, SET, REP)", "Subprogram technique"):
   ``=REP(v)`` (every element); ``A[i,j]=SET(...)``/``REP(v)`` fill from that element on;
   unset elements are 0 (or "");
 * global user variables (GUD, ``DEF NCK``/``DEF CHAN`` in a definitions file such as
-  ``MGUD.DEF``) are read and written like local ones, from every unit (:func:`load_definitions`).
+  ``MGUD.DEF``) are read and written like local ones, from every unit (:func:`load_definitions`);
+  their initialisers may name the variables defined before them (``DEF CHAN REAL UB=UA+1``);
+* a variable's name is an identifier: its first two characters are letters or underscores
+  (Programming Manual Fundamentals, "Language elements of the programming language",
+  "Identifiers"), and one identifier names one object ("Names": "the same identifier must not
+  be used for different objects"). A name of one letter, or of a letter and digits (``B``,
+  ``X1``, ``R10``), is an NC address: the control rejects such a DEF or PROC parameter, and
+  so does :func:`check_name` (the address would otherwise silently become an axis word);
+* an AXIS variable holds an axis name: ``_AX=Y``, ``DEF AXIS _AX=(Z)`` (an axis identifier
+  where an AXIS value is expected), ``AXNAME("Y")`` (Job planning, "Axis functions (AXNAME,
+  AX, SPI, AXTOSPI, ISAXIS, AXSTRING, MODAXVAL)").
 
 :class:`Variables` is the ``Scope`` of :func:`ncsim.nc.expr.evaluate` (it reads) and the one
 place that writes.
@@ -24,6 +34,7 @@ place that writes.
 from __future__ import annotations
 
 import math
+import re
 
 from ncsim.nc import program as P
 from ncsim.nc.expr import ArrayRef, format_value
@@ -32,6 +43,33 @@ from ncsim.nc.modal import CYCLE832_CONSTANTS
 VAR_TYPES = {"REAL": 0.0, "INT": 0.0, "BOOL": 0.0, "STRING": "", "CHAR": "", "AXIS": ""}
 STRING_TYPES = ("STRING", "CHAR", "AXIS")
 MAX_ARRAY_ELEMENTS = 1_000_000      # a DEF larger than this is refused (memory)
+#: what an identifier begins with (Fundamentals, "Identifiers": two letters or underscores)
+_IDENTIFIER = re.compile(r"^[A-Z_][A-Z_]")
+#: axis identifiers of a channel an AXIS value may name (geometry, rotary and additional axes,
+#: with an optional numeric extension as machine axes are named: X1, Z2)
+AXIS_IDENTIFIER = re.compile(r"^[XYZABCUVW][0-9]*$")
+
+
+def check_name(where, name: str, col: int, what: str = "variable") -> None:
+    """Reject a user variable or PROC parameter named like an NC address (``B``, ``X1``,
+    ``R10``): Fundamentals, "Identifiers", the first two characters of an identifier are letters
+    or underscores, and "Names", one identifier names one object (an axis, an address or a
+    variable, never two of them)."""
+    if _IDENTIFIER.match(name):
+        return
+    kind = ("the axis " + name.rstrip("0123456789") if AXIS_IDENTIFIER.match(name)
+            else "an NC address")
+    raise where.error(f"{what} name {name} is {kind}, not an identifier: the control rejects "
+                      f"it (a name begins with two letters or underscores, e.g. _{name} or "
+                      f"U{name})", col)
+
+
+def axis_name(expr, entry) -> str | None:
+    """The axis an expression names where an AXIS value is expected: a bare axis identifier
+    (``_AX=Y``, ``DEF AXIS _AX=(Z)``) that is no variable (``entry`` None), else None."""
+    if isinstance(expr, P.Var) and entry is None and AXIS_IDENTIFIER.match(expr.name):
+        return expr.name
+    return None
 
 
 class RDict(dict):
@@ -79,7 +117,7 @@ class Variables:
 
     def entry(self, name: str):
         """The [type, value] of a variable of the current unit or a global one, or None."""
-        e = self.stack[-1].variables.get(name)
+        e = self.stack[-1].variables.get(name) if self.stack else None
         return self.globals.get(name) if e is None else e
 
     def read_var(self, name: str):
@@ -143,6 +181,7 @@ class Variables:
         variables = ctx.frame.variables if into is None else into
         default = VAR_TYPES[s.type_name]
         for v in s.variables:
+            check_name(ctx, v.name, v.col)
             if v.dims:
                 if len(v.dims) > 3 or any(n < 1 for n in v.dims):
                     raise ctx.error(f"array {v.name}: 1 to 3 dimensions of at least 1 element",
@@ -158,7 +197,17 @@ class Variables:
             if v.init is not None:
                 if isinstance(v.init, P.InitList):
                     raise ctx.error(f"{v.name} is not an array: one value, not a list", v.col)
-                entry[1] = self._checked(ctx, v.name, s.type_name, ctx.eval(v.init), v.col)
+                entry[1] = self._checked(ctx, v.name, s.type_name, self.value_of(ctx, s.type_name,
+                                                                                v.init), v.col)
+
+    def value_of(self, ctx, kind: str, expr):
+        """The value of ``expr`` assigned to a variable of type ``kind``: for AXIS a bare
+        axis identifier is the axis name (:func:`axis_name`)."""
+        if kind == "AXIS":
+            name = axis_name(expr, self.entry(expr.name) if isinstance(expr, P.Var) else None)
+            if name is not None:
+                return name
+        return ctx.eval(expr)
 
     def _fill(self, ctx, name: str, entry: list, start: int, expr) -> None:
         """SET(...), (...) or REP(v[, n]) into an array from the flat element ``start`` on."""
@@ -196,6 +245,13 @@ class Variables:
         if value is None:
             raise ctx.error(f"undefined variable {var.name} (DEF it first)", var.col)
         return value
+
+    def assign_expr(self, ctx, target, expr) -> None:
+        """``target = expr``: the value as the target's type reads it (:meth:`value_of`)."""
+        entry = self.entry(target.name) if isinstance(target, P.Var) else None
+        kind = entry[0] if entry is not None else None
+        self.assign(ctx, target, self.value_of(ctx, kind, expr) if kind == "AXIS"
+                    else ctx.eval(expr))
 
     def assign(self, ctx, target, value) -> None:
         if isinstance(target, P.RParam):

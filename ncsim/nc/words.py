@@ -5,7 +5,8 @@
 
 * words are evaluated in their order, and an assignment takes effect at once, so ``R1=5 X=R1``
   moves to 5;
-* X Y Z, I J K and I1 J1 K1 may be ``AC(..)``/``IC(..)`` (absolute/incremental for this word);
+* X Y Z, I J K and I1 J1 K1 may be ``AC(..)``/``IC(..)`` (absolute/incremental for this word),
+  the transverse axis also ``DAC DIC RAC RIC(..)`` (:mod:`ncsim.nc.diameter`);
   each address once per block, each value |v| < 1e9;
 * two G functions of one group in a block are an error (CIP and CT are motion commands);
 * ``AX[axis]=`` is the word of the axis an AXIS value names (``AX[_Z]`` with ``_Z=$P_AXN3``),
@@ -25,6 +26,7 @@ setting) or :mod:`ncsim.nc.moves` (a motion); a new G function is an entry of
 from __future__ import annotations
 
 from ncsim.nc import program as P
+from ncsim.nc.diameter import VALUE_MODES
 from ncsim.nc.expr import evaluate_arg
 from ncsim.nc.modal import CIP, CT, G_CODES, G_UNSUPPORTED, MOTION_NAMES
 
@@ -40,7 +42,7 @@ _INDIRECT_AXES = {"X": "X", "Y": "Y", "Z": "Z"}
 _INTERPOLATION = {"X": "I", "Y": "J", "Z": "K"}
 _KEYWORDS = ("IF", "ELSE", "ENDIF", "WHILE", "ENDWHILE", "FOR", "TO", "ENDFOR", "REPEAT", "UNTIL",
              "LOOP", "ENDLOOP", "GOTO", "GOTOF", "GOTOB", "GOTOC", "DEF", "PROC", "EXTERN")
-_AXIS_MODES = ("AC", "IC")
+_AXIS_MODES = ("AC", "IC", *VALUE_MODES)   # DAC DIC RAC RIC: nc.diameter
 _ROTARY_MODES = ("AC", "IC", "DC", "ACP", "ACN")
 
 
@@ -93,7 +95,7 @@ class Words:
                 item.value.name in ("SET", "REP"):
             self.vars.assign_elem(ctx, item.target, None, item.value)
             return
-        self.vars.assign(ctx, item.target, ctx.eval(item.value))
+        self.vars.assign_expr(ctx, item.target, item.value)
 
     def _indexed_word(self, ctx, item: P.IndexedWord) -> None:
         """AX[axis]= and IP[axis]= as the axis or centre word; SPOS[n]=, LIMS[n]=, S[n]=, ..."""
@@ -124,7 +126,7 @@ class Words:
     def word(self, ctx, word: P.Word) -> None:
         a = word.address
         if a in AXES or a in CENTRE or a in INTER:
-            mode, expr = _axis_mode(word.value)
+            mode, expr = self._mode(ctx, word)
             value = ctx.in_range(ctx.number(expr, a), a, word.col)
             table = ctx.axes if a in AXES else ctx.centre if a in CENTRE else ctx.inter
             if a in table:
@@ -147,7 +149,7 @@ class Words:
         if a == "N":
             raise ctx.error("a block number N must begin the block", word.col)
         if a in _POLAR:
-            mode, expr = _axis_mode(word.value)
+            mode, expr = self._mode(ctx, word)
             if a in ctx.polar:
                 raise ctx.error(f"{a} programmed twice in one block", word.col)
             ctx.polar[a] = (ctx.in_range(ctx.number(expr, a), a, word.col), mode, word.col)
@@ -172,6 +174,15 @@ class Words:
             ctx.values[a] = (value, word.col)
             return
         raise ctx.error(f"unknown word {a}", word.col)
+
+    def _mode(self, ctx, word: P.Word):
+        """(mode, expression) of a position word; DAC DIC RAC RIC only on the transverse axis."""
+        mode, expr = _axis_mode(word.value)
+        transverse = AXES[self.state.diameter_axis]
+        if mode in VALUE_MODES and word.address != transverse:
+            raise ctx.error(f"{mode}() is diameter/radius programming of the transverse axis "
+                            f"{transverse} (MD20100), not of {word.address}", word.col)
+        return mode, expr
 
     def _aux_word(self, ctx, word: P.Word) -> None:
         a = word.address

@@ -22,6 +22,10 @@ programmed geometry cannot say:
 * the look-ahead counts NC blocks: the rows of one polynomial block share ``nc_block``.
 
 Without compressor and rounding modes the path and the limits are returned unchanged.
+
+Technology groups (``Path.dyn_group``): a compressed block's closed forms take its group's axis
+limits; the rounding takes those of the group of the rounded blocks when they share one (one
+CYCLE832 for the whole contour), else the [axes] values (:func:`_rounding_machine`).
 """
 from __future__ import annotations
 
@@ -118,13 +122,14 @@ class Prepared:
         if options.ncu_path_jerk:
             cand["ncu_path_jerk"][rows] = kin.ncu_path_jerk_feed_limit_mm_s(
                 ncu.tangential_jerk_mm_s3, radius)
-        j_t = kin.axis_tangential_jerk_limit_mm_s3(u, machine.max_jerk_mm_s3)
+        _, max_accel, max_jerk = _group_axis_rows(machine, path.dyn_group[rows])
+        j_t = kin.axis_tangential_jerk_limit_mm_s3(u, max_jerk)
         if options.axis_jerk_setpoint:
             # as on the paper's arcs, where the set point is taken where the axes carry J_tcurv
             # (alpha_c, §5.2.4: R 30 holds 10.53 m/min above the least V_Jt of 9.9)
             j_set = np.maximum(j_t, ncu.tangential_jerk_mm_s3) if options.ncu_path_jerk else j_t
             cand["axis_jerk"][rows] = kin.tangential_jerk_feed_limit_mm_s(j_set, radius)
-        a_n = ncu.normal_accel_share * kin.axis_normal_accel_limit_mm_s2(normal, machine.max_accel_mm_s2)
+        a_n = ncu.normal_accel_share * kin.axis_normal_accel_limit_mm_s2(normal, max_accel)
         cand["axis_accel"][rows] = kin.normal_accel_feed_limit_mm_s(radius, a_n)
         value, which = kin.feed_set_point_mm_s(*[cand[key][rows] for key, _ in _CANDIDATES])
         codes = np.array([int(lim) for _, lim in _CANDIDATES], dtype=np.int8)
@@ -139,8 +144,7 @@ class Prepared:
         cap[rows] = value
         cap_limit[rows] = limit
         normal_accel = value * value * kappa
-        available = kin.tangential_accel_available_mm_s2(u, normal, normal_accel,
-                                                         machine.max_accel_mm_s2)
+        available = kin.tangential_accel_available_mm_s2(u, normal, normal_accel, max_accel)
         accel[rows] = np.minimum(accel[rows], np.maximum(available, 1e-9 * accel[rows]))
         joined = np.nonzero(c.joined)[0]
         junction_of = np.append(row_of, path.n)
@@ -148,11 +152,26 @@ class Prepared:
         jlimit[junction_of[joined]] = Limit.NONE
 
 
+def _group_axis_rows(machine: MachineSpec, groups: np.ndarray):
+    """(velocity, accel, jerk), each (rows, 3): the axis limits of each row's technology group
+    (``Path.dyn_group``, ``machine.TECHNOLOGY_GROUPS``), for the vectorised kinematics."""
+    table = machine.group_limits()[np.asarray(groups, dtype=np.intp)]
+    return table[:, 0], table[:, 1], table[:, 2]
+
+
+def _rounding_machine(path: Path, machine: MachineSpec) -> MachineSpec:
+    """The machine the corner rounding works with: the technology group of the blocks in a
+    rounding mode (G641-G645) when they share one (as after one CYCLE832), else DYNNORM's
+    [axes] (the rounding of a path that changes group between rounded corners uses those)."""
+    groups = np.unique(path.dyn_group[np.isin(path.cp_mode, (641, 642, 643, 644, 645))])
+    return machine.for_group(int(groups[0])) if len(groups) == 1 else machine
+
+
 def prepare(path: Path, machine: MachineSpec, options: ModelOptions) -> Prepared:
     """The compressor's runs and the rounding blocks of ``path`` (module docstring)."""
     compression = compress(path, machine)
     smooth = (compression.joined if compression is not None
               else np.zeros(path.n + 1, dtype=bool))
-    rounding = round_corners(path, machine, options, smooth)
+    rounding = round_corners(path, _rounding_machine(path, machine), options, smooth)
     return Prepared(path=rounding.path if rounding is not None else path,
                     compression=compression, rounding=rounding)

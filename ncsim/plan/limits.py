@@ -6,7 +6,9 @@ and returns a :class:`PathLimits`: for every block the feed set point (paper eq.
 highest crossing feed (eq. 13/15, corners, stops) and the time spent standing there. The
 planner (:mod:`ncsim.plan`) turns these into the feed law; this module never plans time.
 
-Everything is vectorised over blocks and junctions. On arcs, every extremum over the arc's
+Everything is vectorised over blocks and junctions. The axis limits V_mi, A_mi, J_mi are those
+of each block's technology group (``Path.dyn_group``, G group 59: the machine file's
+``[dynamics]``, ``machine.TECHNOLOGY_GROUPS``): the blocks are taken in runs of one group. On arcs, every extremum over the arc's
 angle range (least V_t, A_n, J_t and tangential acceleration, alpha_c, largest J_t) is a closed
 form evaluated at a few known angles -- the range ends, the axis directions, the crossings of
 two axes' ratios (45 deg, ``tan alpha = J_mx / J_my``) -- by the compiled per-arc loops of
@@ -241,14 +243,13 @@ def block_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_
     jcap = np.full(n + 1, np.inf)
     jlimit = np.full(n + 1, int(Limit.NONE), dtype=np.int8)
     jdwell = np.zeros(n + 1)
-    for lo in range(0, n, CHUNK_BLOCKS):
-        hi = min(lo + CHUNK_BLOCKS, n)
+    for lo, hi, group_machine in _group_chunks(path, machine):
         cand = {label: v[:hi - lo] for label, v in chunk.items()}
-        _block_limits(path, lo, hi, machine, options, j_ncu, cand, cap, limit, accel, jerk,
+        _block_limits(path, lo, hi, group_machine, options, j_ncu, cand, cap, limit, accel, jerk,
                       alpha_c)
         for label, v in kept.items():
             v[lo:hi] = cand[label]
-        _junction_limits(path, lo, hi, machine, options, jcap, jlimit)
+        _junction_limits(path, lo, hi, group_machine, options, jcap, jlimit)
         _junction_dwell(path, lo, hi, ncu, jdwell)
     jcap[0] = jcap[n] = 0.0
     jlimit[0] = jlimit[n] = int(Limit.PROGRAM_END)
@@ -256,6 +257,24 @@ def block_limits(path: Path, machine: MachineSpec, options: ModelOptions = FULL_
     return PathLimits(cap_mm_s=cap, cap_limit=limit, jerk_mm_s3=jerk, accel_mm_s2=accel,
                       alpha_c_rad=alpha_c, candidates=kept, junction_cap_mm_s=jcap,
                       junction_limit=jlimit, junction_dwell_s=jdwell)
+
+
+def _group_chunks(path: Path, machine: MachineSpec):
+    """``(lo, hi, machine of the group)`` over the runs of blocks of one technology group
+    (``Path.dyn_group``: DYNNORM..DYNPREC, ``MachineSpec.for_group``), in chunks of at most
+    ``CHUNK_BLOCKS``: each run's limits are computed with its group's axis arrays. A junction
+    takes the group of the block after it (the group a block selects applies from it on)."""
+    n = path.n
+    group = path.dyn_group
+    bounds = [0, n]
+    if n and group.any():
+        bounds = [0, *(np.flatnonzero(group[1:] != group[:-1]) + 1).tolist(), n]
+    machines: dict[int, MachineSpec] = {}
+    for start, stop in zip(bounds[:-1], bounds[1:]):
+        g = int(group[start]) if n else 0
+        m = machines.setdefault(g, machine.for_group(g))
+        for lo in range(start, stop, CHUNK_BLOCKS):
+            yield lo, min(lo + CHUNK_BLOCKS, stop), m
 
 
 # ---------------------------------------------------------------------------------------------
