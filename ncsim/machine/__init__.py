@@ -185,6 +185,7 @@ class MachineSpec:
     kind: str = "milling"
     #: ``[dynamics]``: per technology group (TECHNOLOGY_GROUPS) axis limits
     dynamics: GroupDynamics | None = field(default=None, compare=False)
+    tool_change_s: float = 0.0   # an M6 tool change, chip to chip ([tool_change] time_s; 0: none)
 
     def defines_group(self, group: int) -> bool:
         """Whether the file says how technology group ``group`` (G group 59) runs."""
@@ -338,6 +339,8 @@ _STRUCTURE_KEYS = (
     ("radial_compliance_um_per_m_s2", "radial_compliance_mm_per_mm_s2", False,
      between(0.0, 1e4, "um/(m/s^2)"), um_per_m_s2_to_s2),
 )
+#: ``[tool_change]``: the machine builder's tool-change time (no 840D machine data holds it)
+_TOOL_CHANGE_KEYS = (("time_s", "tool_change_s", False, between(0.0, 1e4, "s"), float),)
 
 def _read_old_corner_key(data: dict[str, Any], c: Problems) -> dict[str, Any]:
     """``[ncu] corner_velocity_jump_factor = k`` of earlier versions, read as
@@ -371,7 +374,7 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
     :class:`~ncsim.errors.MachineSpecError`."""
     c = Problems(file, MachineSpecError)
     c.unknown(data, "", {"machine", "axes", "ncu", "work_offsets", "structure", "cycle832",
-                         "system_variables", "dynamics", "iso"})
+                         "system_variables", "dynamics", "iso", "tool_change"})
     data = _read_old_corner_key(data, c)
 
     mtab = c.table(data, "machine", required=True)
@@ -459,13 +462,7 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
             if v is not None:
                 offsets.append((key, v))
 
-    stab = c.table(data, "structure")
-    c.unknown(stab, "structure", {k for k, *_ in _STRUCTURE_KEYS})
-    svalues = {}
-    for k, f, req, chk, conv in _STRUCTURE_KEYS:
-        v = c.number(stab, "structure", k, required=req, check=chk, convert=conv)
-        if v is not None:
-            svalues[f] = v
+    svalues = c.numbers(data, "structure", _STRUCTURE_KEYS)
 
     sysvars = _system_variables(c, c.table(data, "system_variables"))
     iso = iso_spec(c, data)
@@ -473,13 +470,15 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
     if len(axes) == len(AXIS_NAMES) and not c:
         least_accel_mm_s2 = float(group_limits(axes, dynamics)[:, 1, :].min())
         derived_limits(c, least_accel_mm_s2, ncu_values, _NCU_DEFAULTS)
+    tool_change = c.numbers(data, "tool_change", _TOOL_CHANGE_KEYS)
     c.raise_if_any()
     unusual_values(c, {f"axes.{a}": atab[a] for a in AXIS_NAMES} | {"ncu": ntab})
     return MachineSpec(name=name, description=description, axes=tuple(axes),
                        ncu=NcuSpec(**ncu_values), source=file,
                        work_offsets_mm=tuple(offsets), structure=StructureSpec(**svalues),
                        warnings=tuple(c.warnings), cycle832=cycle832,
-                       system_variables=sysvars, kind=kind, dynamics=dynamics, iso=iso)
+                       system_variables=sysvars, kind=kind, dynamics=dynamics, iso=iso,
+                       **tool_change)
 
 
 _SYSVAR_KEY = re.compile(r"^\$[A-Z_][A-Z0-9_]*(\[[A-Z0-9_]+(,[A-Z0-9_]+)*\])?$")
@@ -632,6 +631,8 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
         lines += ["", "[system_variables]"]
         for key, value in spec.system_variables:
             lines.append(f"{_q(key)} = {_q(value) if isinstance(value, str) else _f(value)}")
+    if spec.tool_change_s:
+        lines += ["", "[tool_change]", f"time_s = {_f(spec.tool_change_s)}  # M6, chip to chip"]
     if spec.structure.radial_compliance_mm_per_mm_s2:
         lines += ["", "[structure]",
                   f"radial_compliance_um_per_m_s2 = {_f(s2_to_um_per_m_s2(spec.structure.radial_compliance_mm_per_mm_s2))}"]

@@ -190,6 +190,7 @@ class Calls:
             return None
         text = read_program_text(path)
         program = parse_text(text, str(path), fast=state.fast, macros=state.macros)
+        state.programs[str(path)] = program
         self.file_dirs[str(path)] = path.parent
         state.add_lines(program.n_lines)
         units = split_units(program, name, subprogram=True)

@@ -111,6 +111,7 @@ from ncsim.nc.isoparse import IsoBlock
 from ncsim.nc.macros import definition_macros
 from ncsim.nc.modal import COMPRESSOR_COMMANDS, DYNAMIC_COMMANDS
 from ncsim.nc.moves import Moves
+from ncsim.nc.outline import label_path
 from ncsim.nc.parse import parse_text, read_program_text
 from ncsim.nc.settings import Settings
 from ncsim.nc.variables import load_definitions
@@ -226,6 +227,7 @@ class Interpreter:
         until then (``error.warnings``), so that a caller can show what led to it."""
         state = self.state
         state.out = PathOutput(program.file, capacity=program.n_lines)   # one segment a line
+        state.programs[program.file] = program
         self.calls.main_file = program.file
         state.add_lines(program.n_lines)
         try:
@@ -244,7 +246,7 @@ class Interpreter:
         state.stack.clear()
         builder = state.out.builder
         builder.end_dwell_s = state.st.pending_dwell_s
-        path = builder.build()
+        path = label_path(builder.build(), state.programs, state.recorded)
         procs_only = len(units) > 1 and not any(_has_content(i) for i in units[0].items)
         complete = state.ended or not self.ran_off_end or procs_only
         self._warn_empty(program, path.n, complete, [u.name for u in units[1:]] * procs_only)
@@ -262,6 +264,7 @@ class Interpreter:
                 unit.ops.clear()
                 unit.items = []
         state.units.clear()
+        state.programs.clear()
         state.stack.clear()
         self.main_unit = None
 

@@ -22,6 +22,7 @@ import codecs
 import re
 from functools import lru_cache
 from importlib import resources
+from dataclasses import replace
 from pathlib import Path as FsPath
 
 from lark import Lark, Token, Transformer
@@ -32,6 +33,7 @@ from ncsim.config import read_bytes
 from ncsim.nc import program as P
 from ncsim.errors import NcError, NcSyntaxError, shown
 from ncsim.nc.isoparse import parse_dialect_text, switches_dialect
+from ncsim.nc.outline import operation_comments
 
 # Words whose name is an 840D address (``X=..`` is a word, not a variable assignment).
 ADDRESSES = frozenset({
@@ -454,17 +456,19 @@ def parse_text(text: str, file: str = "<string>", *, fast: bool = True,
     :mod:`ncsim.nc.isoparse` (``iso_plain``: its ISO plain lines may be read as columns)."""
     from ncsim.nc.macros import expand_macros
     text, _ = expand_macros(normalize_newlines(text), file, macros, upper_code)
+    comments = operation_comments(text)
     if dialect != "siemens" or switches_dialect(text):
-        return parse_dialect_text(text, file, parse_block, fast=fast, dialect=dialect,
-                                  iso_plain=iso_plain)
+        program = parse_dialect_text(text, file, parse_block, fast=fast, dialect=dialect,
+                                     iso_plain=iso_plain)
+        return replace(program, operation_comments=comments)
     if fast:
         from ncsim.nc.fastparse import scan_program
-        return scan_program(text, file, parse_block)
+        return replace(scan_program(text, file, parse_block), operation_comments=comments)
     lines = text.split("\n")
     if lines and lines[-1] == "":
         lines.pop()
     items = tuple(parse_block(t, i + 1, file) for i, t in enumerate(lines))
-    return P.Program(file, items, len(lines))
+    return P.Program(file, items, len(lines), comments)
 
 
 def read_program_text(path: str | FsPath, what: str = "program") -> str:

@@ -348,11 +348,13 @@ class PlainRun:
 
 @dataclass(frozen=True, slots=True, eq=False)
 class Program:
-    """A parsed file: ``items`` in line order (Blocks and PlainRuns), ``n_lines`` lines."""
+    """A parsed file: ``items`` in line order (Blocks and PlainRuns), ``n_lines`` lines, and
+    the comment lines naming CAM operations, ``(line, name)`` (``ncsim.nc.outline``)."""
 
     file: str
     items: tuple
     n_lines: int
+    operation_comments: tuple = ()
 
     def blocks(self):
         """Every line as a Block (PlainRuns expanded), for tests and tools."""

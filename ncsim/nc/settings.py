@@ -9,7 +9,8 @@
   the block's X Y Z are their arguments, so a frame block makes no motion (:mod:`ncsim.nc.frames`);
 * F is mm/min (inch/min under G700), positive; S the spindle speed; D a tool offset (its
   compensation is not simulated, a warning when it changes); every M and H output stops the path
-  (M0 M1 M6 with a warning, their time is not simulated);
+  (M0 M1 with a warning, their time is not simulated; M6 stands still for the machine file's
+  tool-change time ``[tool_change] time_s``, and without it is a warning);
 * feed type (group 15): G94 feed per minute; G95 feed per revolution, the path feed is F x S
   (mm/rev x rev/min) while the spindle turns (M3/M4), G97 as G95 and G971 as G94 without a G96
   before (Programming Manual Fundamentals, "Feedrate (G93, G94, G95, F)"); F keeps its value
@@ -246,8 +247,14 @@ class Settings:
         elif code == M_OPTIONAL_STOP:
             ctx.warn("M1", "M1 optional stop is not active in ncsim (ignored)", col)
         elif code == M_TOOL_CHANGE:
-            ctx.warn("M6", "M6 tool change: its time is not simulated", col)
             ctx.record("M6", ())
+            machine = self.state.machine
+            change_s = machine.tool_change_s if machine is not None else 0.0
+            if change_s > 0.0:    # the machine file's chip-to-chip time, standing still
+                st.pending_dwell_s += change_s
+            else:
+                ctx.warn("M6", "M6 tool change: its time is not simulated (no [tool_change] "
+                         "time_s in the machine file)", col)
 
     # ---- command words -----------------------------------------------------------------------
 
