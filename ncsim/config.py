@@ -285,6 +285,16 @@ class Problems:
             return None
         return convert(value)
 
+    def numbers(self, data: dict, name: str, keys) -> dict[str, Any]:
+        """The numbers of table ``name`` of ``data``, as {field: value}: ``keys`` are tuples
+        (toml key, field, required, check, convert) as :meth:`number` takes them; a key not
+        among them is a problem."""
+        table = self.table(data, name)
+        self.unknown(table, name, {k for k, *_ in keys})
+        return {f: v for k, f, req, chk, conv in keys
+                if (v := self.number(table, name, k, required=req, check=chk, convert=conv))
+                is not None}
+
     def integer(self, table: dict, prefix: str, key: str, *, required: bool = False,
                 minimum: int = 1, maximum: int | None = None) -> int | None:
         found = self._lookup(table, prefix, key, required)

@@ -173,12 +173,16 @@ class UsageError(NcsimError):
 
 @dataclass(frozen=True, slots=True)
 class NcWarning:
-    """Something parsed but not simulated (or simulated approximately), with its location."""
+    """Something parsed but not simulated (or simulated approximately), with its location.
+    ``kind`` groups warnings of one sort (``"rotary axis"``, ``"M6"``); ``more`` > 0 marks the
+    entry that stands for that many more warnings of its kind, not kept one by one."""
 
     message: str
     file: str
     line: int
     column: int = 0
+    kind: str = ""
+    more: int = 0
 
     def render(self) -> str:
         message = short_tokens(self.message)

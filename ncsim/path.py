@@ -28,10 +28,15 @@ modal columns say how the NC treats the segment and its junctions:
 * ``dyn_group``: the technology group (G group 59) whose axis dynamics apply: 0 DYNNORM,
   1 DYNPOS, 2 DYNROUGH, 3 DYNSEMIFIN, 4 DYNFINISH, 5 DYNPREC (``machine.TECHNOLOGY_GROUPS``;
   selected by the DYN... words and CYCLE832, resolved by ``plan.limits``).
+
+Where a segment comes from in the program's structure (for reports; the planner ignores
+them): ``block_number`` is the N number of its block (-1: none), ``tool`` and ``operation``
+index the string tables ``tools`` and ``operations`` (-1: none), as ``file_index`` indexes
+``files`` (``ncsim.nc.outline`` says how they are found).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Iterable
 
 import numpy as np
@@ -78,6 +83,9 @@ _COLUMNS: dict[str, tuple[type, tuple[int, ...], object]] = {
     "compressor": (np.int8, (), COMPOF),
     "ctol_mm": (np.float64, (), np.nan),
     "dyn_group": (np.int8, (), 0),
+    "block_number": (np.int32, (), -1),
+    "tool": (np.int16, (), -1),
+    "operation": (np.int16, (), -1),
 }
 
 
@@ -110,6 +118,9 @@ class Segment:
     compressor: int = COMPOF
     ctol_mm: float = float("nan")
     dyn_group: int = 0
+    block_number: int = -1
+    tool: str | None = None
+    operation: str | None = None
 
     @property
     def is_arc(self) -> bool:
@@ -151,8 +162,13 @@ class Path:
     compressor: np.ndarray
     ctol_mm: np.ndarray
     dyn_group: np.ndarray
+    block_number: np.ndarray
+    tool: np.ndarray
+    operation: np.ndarray
     files: tuple[str, ...] = ("<program>",)
     end_dwell_s: float = 0.0  # dwell after the last segment (G4 at the end of the program)
+    tools: tuple[str, ...] = ()        # names the ``tool`` column indexes
+    operations: tuple[str, ...] = ()   # names the ``operation`` column indexes
 
     def __post_init__(self) -> None:
         n = len(self.kind)
@@ -187,6 +203,14 @@ class Path:
     def file_of(self, i: int) -> str:
         return self.files[int(self.file_index[i])]
 
+    def tool_of(self, i: int) -> str | None:
+        k = int(self.tool[i])
+        return self.tools[k] if k >= 0 else None
+
+    def operation_of(self, i: int) -> str | None:
+        k = int(self.operation[i])
+        return self.operations[k] if k >= 0 else None
+
     def segment(self, i: int) -> Segment:
         if not -self.n <= i < self.n:
             raise IndexError(i)
@@ -217,6 +241,9 @@ class Path:
             compressor=int(self.compressor[i]),
             ctol_mm=float(self.ctol_mm[i]),
             dyn_group=int(self.dyn_group[i]),
+            block_number=int(self.block_number[i]),
+            tool=self.tool_of(i),
+            operation=self.operation_of(i),
         )
 
     def segments(self) -> Iterable[Segment]:
@@ -226,7 +253,7 @@ class Path:
     def select(self, index) -> "Path":
         """A new Path with the rows ``index`` (slice, mask or index array)."""
         cols = {name: np.array(getattr(self, name)[index]) for name in _COLUMNS}
-        return Path(**cols, files=self.files, end_dwell_s=self.end_dwell_s)
+        return replace(self, **cols)
 
     def replace_columns(self, **columns) -> "Path":
         """A new Path with some columns replaced (arrays are copied and cast)."""
@@ -236,7 +263,7 @@ class Path:
                 raise KeyError(name)
             dtype, shape, _ = _COLUMNS[name]
             cols[name] = np.array(np.broadcast_to(value, (self.n, *shape)), dtype=dtype)
-        return Path(**cols, files=self.files, end_dwell_s=self.end_dwell_s)
+        return replace(self, **cols)
 
     @staticmethod
     def empty(files: tuple[str, ...] = ("<program>",)) -> "Path":

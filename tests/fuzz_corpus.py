@@ -6,7 +6,7 @@ Every file is written by this module (``python tests/fuzz_corpus.py`` regenerate
 of them. ``tests/test_fuzz_corpus.py`` checks that the committed files are what this module
 writes and runs every case through the CLI. Ids follow the campaign's table: T tracebacks,
 W silent wrong numbers, S green on nothing, U unclear messages, G CSV readers, P plausibility
-(a value in the wrong unit), C command-line options.
+(a value in the wrong unit), C command-line options, D other dialects and ISO mode.
 """
 from __future__ import annotations
 
@@ -82,6 +82,14 @@ FILES: dict[str, bytes] = {
     "G3_trace_underscore.csv": (TRACE_HEAD + "\n".join(TRACE_ROWS[:2] + ["0.024,1_000,0.000,0.000,20.0"]
                                                       + TRACE_ROWS[3:]) + "\n").encode(),
     "G4_trace_ok.csv": (TRACE_HEAD + "\n".join(TRACE_ROWS) + "\n").encode(),
+    # D: other dialects (Fanuc/ISO code, LinuxCNC code) and ISO mode's own mistakes
+    "D1_fanuc.nc": b"%\nO1234 (PART)\nG21 G90 G17\nG0 X0 Y0 Z10.\nG81 X5. Y5. Z-2. R1. F100\n"
+                   b"G80\nM30\n%\n",
+    "D2_linuxcnc.ngc": b"(probe)\n#<depth> = -2\no100 sub\nG1 Z#<depth> F100\no100 endsub\n"
+                       b"o100 call\nM2\n",
+    "D3_iso_unclosed_loop.nc": b"O1\n#1=0\nWHILE [#1 LT 3] DO 1\n#1=#1+1\nM30\n",
+    "D4_iso_bad_expression.nc": b"O1\n#1=[2+*3]\nM30\n",
+    "D5_iso_alarm.nc": b"O1\n#3000=12 (TOOL BROKEN)\nM30\n",
     # P: plausibility
     "P1_machine_velocity_mm_min.toml": machine_toml(axes_Y__max_velocity_m_min="30000.0").encode(),
     "P2_machine_jerk_mm_s3.toml": machine_toml(axes_X__max_jerk_m_s3="5000.0").encode(),
@@ -185,6 +193,19 @@ CASES = [
          _one_line(r"ncsim check: error: Invalid value for '--max-time': 'nan' is not a finite number\. .*")),
     Case("C2 --trace ''", ("run", "ok.mpf", *MIKRON, "--trace", ""), 2,
          _one_line(r"ncsim run: error: Invalid value for '--trace': the file name is empty\. .*")),
+    Case("D1 a Fanuc program in Siemens mode", ("run", "D1_fanuc.nc", *MIKRON), 2,
+         _one_line(r"D1_fanuc\.nc:2:1: looks like ISO/Fanuc code \(O1234, G81, G80\): run with --dialect iso")),
+    Case("D1 the same with --dialect iso", ("run", "D1_fanuc.nc", *MIKRON, "--dialect", "iso"), 0, (),
+         r"path        \d+\.\d mm in 5 blocks"),
+    Case("D2 a LinuxCNC program", ("run", "D2_linuxcnc.ngc", *MIKRON, "--dialect", "iso"), 2,
+         _one_line(r"D2_linuxcnc\.ngc:2:1: looks like LinuxCNC/RS274NGC code \(#<depth>, o100 sub, o100 endsub\): "
+                   r"not an 840D program")),
+    Case("D3 DO without END", ("run", "D3_iso_unclosed_loop.nc", *MIKRON, "--dialect", "iso"), 2,
+         _one_line(r"D3_iso_unclosed_loop\.nc:3:1: DO 1 without END 1")),
+    Case("D4 a bad expression", ("run", "D4_iso_bad_expression.nc", *MIKRON, "--dialect", "iso"), 2,
+         _one_line(r"D4_iso_bad_expression\.nc:2:7: unexpected '\*' in an expression")),
+    Case("D5 macro alarm", ("run", "D5_iso_alarm.nc", *MIKRON, "--dialect", "iso"), 2,
+         _one_line(r"D5_iso_alarm\.nc:2:1: #3000 = 12: macro alarm 12, the control stops the program here")),
     Case("P1 velocity in mm/min", ("run", "ok.mpf", "-m", "P1_machine_velocity_mm_min.toml"), 0,
          _one_line(r"P1_machine_velocity_mm_min\.toml: axes\.Y\.max_velocity_m_min: warning: 30000 m/min is outside "
                    r"the usual 0\.5\.\.300 m/min \(in mm/min\? that is 30 m/min\)")),

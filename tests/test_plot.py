@@ -47,13 +47,13 @@ def test_figure_has_five_labelled_panels_limit_legend_and_boundaries(bore_sim, b
     by_title = _panel_axes(fig)
     titles = {"feed against time": "feed_time",
               "feed along the cutting path (rapids take no length)": "feed_path",
-              "XY path coloured by feed": "xy_path", "acceleration": "accel", "jerk": "jerk"}
+              "XY path: reached / programmed feed": "xy_path", "acceleration": "accel", "jerk": "jerk"}
     assert set(by_title) == set(titles)
     for title, panel in titles.items():
         ax = by_title[title]
         assert ax.get_ylabel() == YLABELS[panel] and ax.get_xlabel() == XLABELS[panel]
     colorbar = next(ax for ax in fig.axes if not ax.get_title(loc="left"))
-    assert colorbar.get_ylabel() == "reached feed (mm/min)"
+    assert colorbar.get_ylabel() == "reached / programmed feed"
     # legend of the feed panel: programmed, set point, rapids, reached, block boundary
     feed = by_title["feed against time"]
     assert [t.get_text() for t in feed.get_legend().get_texts()] == [
@@ -65,7 +65,7 @@ def test_figure_has_five_labelled_panels_limit_legend_and_boundaries(bore_sim, b
     # 8 blocks: 7 boundaries as vertical lines, each labelled with its source line
     labels = [t.get_text().strip() for t in feed.texts]
     assert labels == [f"line {n}" for n in (13, 14, 15, 16, 17, 18, 19)]
-    assert by_title["XY path coloured by feed"].get_aspect() == 1.0
+    assert by_title["XY path: reached / programmed feed"].get_aspect() == 1.0
 
 
 def test_csv_without_dynamics_columns_gives_three_panels(bore_trace):

@@ -206,7 +206,9 @@ def test_real_thws_program_is_framed_on_its_cutting_moves(shared):
     result = figure(sim)
     cut = ~path.rapid & (path.length_mm > 0)
     f_max = float(np.max(path.feed_mm_s[cut])) * 60.0
-    assert result.axes["feed_time"].get_ylim()[1] == pytest.approx(1.15 * f_max)
+    from ncsim.report.overview import LABEL_HEADROOM
+    assert result.panels == ("feed_time", "operations", "xy_path", "side_path")   # the overview
+    assert result.axes["feed_time"].get_ylim()[1] == pytest.approx(1.15 * f_max * LABEL_HEADROOM)
     ends = np.concatenate([path.start_mm[cut, :2], path.end_mm[cut, :2]])
     lo, hi = ends.min(axis=0), ends.max(axis=0)
     ax = result.axes["xy_path"]

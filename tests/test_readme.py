@@ -305,7 +305,8 @@ def test_every_machine_file_key_is_documented(readme, repo_root):
     data = tomllib.loads((repo_root / "machines" / "mikron.toml").read_text())
     keys = {k for table in data.values() for k in table if not isinstance(table[k], dict)}
     keys |= {k for axis in data["axes"].values() for k in axis}
-    keys |= {k for k, *_ in machine._AXIS_KEYS + machine._NCU_KEYS + machine._STRUCTURE_KEYS}
+    keys |= {k for k, *_ in machine._AXIS_KEYS + machine._NCU_KEYS + machine._STRUCTURE_KEYS
+             + machine._TOOL_CHANGE_KEYS}
     keys |= set(machine._NCU_OTHER_KEYS)
     assert keys - documented == set()
     for md in ("MD32000", "MD32300", "MD32431", "MD10050"):
@@ -319,3 +320,31 @@ def test_exit_codes_and_reserved_sections(readme):
         assert re.search(rf"^\| {int(status)} \|", table, re.M), status
     for heading in ("Speed and scale", "Sim-to-real gap diagnosis", "Development"):
         section(readme, heading)
+
+
+# ---------------------------------------------------------------------------------------------
+# The Python API example and the real program's run excerpt
+# ---------------------------------------------------------------------------------------------
+
+def test_python_api_example_runs_as_written(readme, repo_root, monkeypatch, capsys):
+    """The README's Python example, run in the checkout, prints what the README shows."""
+    text = section(readme, "Python API")
+    code = fenced(text, "python")
+    assert len(code) == 1 and "ncsim.simulate(" in code[0]
+    monkeypatch.chdir(repo_root)
+    exec(compile(code[0], "README.md (Python API)", "exec"), {})
+    assert capsys.readouterr().out == fenced(text, "text")[0]
+
+
+def test_real_program_run_excerpt_is_real(readme, repo_root, monkeypatch, shared):
+    """The lines shown of `ncsim run` on the THWS bottle opener are lines of its output."""
+    text = section(readme, "Worked example: the 25 mm bore")
+    i = text.index("`ncsim run` names the operations and tools")
+    excerpt = text[text.index("```text\n", i) + 8:text.index("```", text.index("```text\n", i) + 8)]
+    monkeypatch.chdir(repo_root)
+    r = CliRunner().invoke(cli, ["run", THWS_COMMAND.split()[2], "--machine", "mikron", "-q"])
+    assert r.exit_code == 0, r.output
+    shown = [line for line in excerpt.splitlines() if line.strip()]
+    assert len(shown) >= 10
+    assert [line for line in shown if line not in r.stdout.splitlines()] == [], \
+        "refresh the README's excerpt of the bottle opener's run"

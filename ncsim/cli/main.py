@@ -7,7 +7,8 @@ Bad command-line usage (an unknown option, a value out of range) is one line as 
 Commands: ``run`` (cycle time and where the feed is limited), ``plot``, ``check`` (CI
 thresholds), ``machines``, ``explain`` (a machine's derived limits), ``parse``, ``warmup``
 (compile the numba kernels ahead; a first compilation is announced on stderr), and in their
-own modules ``batch`` (``cli.batch``) and ``gap`` (``cli.gap``). Heavy modules (the parser, the
+own modules ``batch`` (``cli.batch``), ``compare`` (``cli.compare``), ``report``
+(``cli.report``) and ``gap`` (``cli.gap``); the options they share are in ``cli.options``. Heavy modules (the parser, the
 planner, matplotlib, the gap diagnosis) are imported inside the commands that need them, so
 that ``ncsim --help`` is quick and ``ncsim run`` never imports matplotlib.
 """
@@ -17,18 +18,20 @@ import dataclasses
 import json
 import os
 import sys
-import threading
-import time
-from contextlib import contextmanager
 
 import click
 
 from ncsim import __version__
 from ncsim.cli.batch import batch
+from ncsim.cli.compare import compare_cmd
 from ncsim.cli.gap import gap
+from ncsim.cli.options import (Progress, echo_warnings, feed_unit_option, machine_option,
+                               model_options, nc_options, program_options, simulation_options,
+                               text_only_feed_unit)
 from ncsim.cli.params import FilePath, FiniteFloatRange
+from ncsim.cli.report import report_cmd
 from ncsim.errors import ExitStatus, NcsimError, UsageError
-from ncsim.units import FEED_UNITS, s_to_ms
+from ncsim.units import s_to_ms
 
 
 class NcsimGroup(click.Group):
@@ -87,9 +90,11 @@ def cli() -> None:
     ncsim run PROGRAM --machine mikron        cycle time, reached feed, where time is lost
     ncsim plot PROGRAM --machine mikron -o run.png
     ncsim check PROGRAM --machine mikron --max-time 60
+    ncsim report PROGRAM --machine mikron -o report.html
+    ncsim compare BEFORE AFTER --machine mikron --max-slower 2
     ncsim machines / ncsim explain --machine mikron
 
-    Exit status: 0 ok, 1 a `check` threshold failed, 2 bad input, 130 interrupted.
+    Exit status: 0 ok, 1 a `check` or `compare` threshold failed, 2 bad input, 130 interrupted.
     """
     from ncsim import jit
     jit.on_compile(_compile_notice)
@@ -99,34 +104,6 @@ def _compile_notice(text: str) -> None:
     """numba starts compiling the kernels: say so (also in logs), over a progress line."""
     tty = getattr(sys.stderr, "isatty", None)
     click.echo(("\r\033[K" if tty and tty() else "") + text, err=True)
-
-
-def program_options(func):
-    """How the program is read: subprogram folders, missing subprograms, GUD definitions and
-    the block budget (``nc_options`` pops them for ``pipeline.simulate``)."""
-    func = click.option("--block-budget", type=click.IntRange(min=1), default=None, metavar="N",
-                        help="Stop as an endless loop after N executed blocks [default: the "
-                             "program's lines + 2,000,000, FOR loop passes not counted].")(func)
-    func = click.option("--definitions", type=click.Path(dir_okay=False, exists=True), multiple=True,
-                        metavar="FILE", help="GUD definitions file (MGUD.DEF, UGUD.DEF: DEF "
-                        "NCK|CHAN type name), read before the program; repeatable.")(func)
-    func = click.option("--missing-subprograms", type=click.Choice(["error", "warn"]),
-                        default="error", show_default=True,
-                        help="A call of a subprogram found nowhere: an error, or a warning "
-                             "(no motion, the time is marked approximate).")(func)
-    func = click.option("--subprograms", type=click.Path(file_okay=False, exists=True), multiple=True,
-                        metavar="DIR", help="Folder searched for subprogram and cycle files "
-                        "(NAME.SPF/.MPF, any case) after the program's own folder; "
-                        "repeatable.")(func)
-    return func
-
-
-def nc_options(params: dict) -> dict:
-    """The interpreter options of :func:`program_options` (popped from ``params``)."""
-    return {"subprograms": params.pop("subprograms", ()),
-            "missing_subprograms": params.pop("missing_subprograms", "error"),
-            "definitions": params.pop("definitions", ()),
-            "block_budget": params.pop("block_budget", None)}
 
 
 @cli.command("parse")
@@ -200,137 +177,6 @@ def _summary_dict(result) -> dict:
 
 
 # ---------------------------------------------------------------------------------------------
-# Shared options
-# ---------------------------------------------------------------------------------------------
-
-#: ModelOptions fields that a --no-... flag switches off, with their help.
-MODEL_FLAGS = (
-    ("ncu_path_jerk", "the NCU path-jerk set point V_Jtcurv (eq. 10-11)"),
-    ("axis_jerk_setpoint", "the axis-jerk set point V_Jt at alpha_c (eq. 4/9)"),
-    ("transition_crossing", "the curvature-jump crossing feed V_fr (eq. 13/15)"),
-    ("cycle_time_limit", "the one-block-per-IPO-cycle limit V_tcy (eq. 6)"),
-    ("jerk_limited_ramps", "jerk-limited ramps (phases A/C become acceleration-limited)"),
-    ("lookahead", "the finite look-ahead (stop at the end of the prepared blocks)"),
-)
-ACCEL_MODES = ("soft", "brisk", "drive")
-
-
-def machine_option(required: bool = True):
-    return click.option("--machine", "-m", "machine_name", required=required, metavar="MACHINE",
-                        help="Machine: a TOML file or the name of a bundled machine "
-                             "(`ncsim machines`), e.g. mikron.")
-
-
-def feed_unit_option(what: str = "Feeds"):
-    """``--feed-unit``: the one unit of every feed a text output prints (mm/min by default)."""
-    return click.option("--feed-unit", type=click.Choice(FEED_UNITS), default="mm/min",
-                        show_default=True, help=f"{what} in this unit.")
-
-
-def _text_only_feed_unit(feed_unit: str, as_json: bool) -> None:
-    if as_json and feed_unit != "mm/min":
-        raise UsageError("--feed-unit applies to the text output; the JSON keeps mm/min "
-                         "(the unit is in its key names)")
-
-
-def simulation_options(func):
-    """PROGRAM-independent options of every command that simulates: --setup, how the program
-    is read (:func:`program_options`) and the model."""
-    func = program_options(func)
-    for field, what in reversed(MODEL_FLAGS):
-        flag = "--no-" + field.replace("_", "-")
-        func = click.option(flag, f"no_{field}", is_flag=True, help=f"Switch off {what}.")(func)
-    func = click.option("--accel-mode", type=click.Choice(ACCEL_MODES, case_sensitive=False),
-                        default=None, help="Force SOFT, BRISK or DRIVE on every block.")(func)
-    func = click.option("--setup", "setup_file", default=None, type=FilePath(),
-                        help="Setup TOML with [work_offsets] G54 = [x, y, z] "
-                             "(overrides the machine's).")(func)
-    return func
-
-
-def model_options(params: dict):
-    """The ModelOptions of the --no-... and --accel-mode flags (popped from ``params``)."""
-    from ncsim.motion import ModelOptions
-    from ncsim.path import BRISK, DRIVE, SOFT
-    off = {field: False for field, _ in MODEL_FLAGS if params.pop(f"no_{field}", False)}
-    mode = params.pop("accel_mode", None)
-    if mode is not None:
-        off["accel_mode"] = {"soft": SOFT, "brisk": BRISK, "drive": DRIVE}[mode.lower()]
-    return ModelOptions(**off)
-
-
-class Progress:
-    """Stage-by-stage progress on stderr, drawn only on a terminal (silent in logs and CI).
-
-    Calling it with a stage name begins that stage (and ends the one before): it is the
-    ``progress`` callback of ``ncsim.pipeline.simulate``; ``stage`` does the same for the
-    command's own stages. While a stage runs, a daemon thread redraws the line every
-    ``TICK_S`` so that the elapsed time moves on long stages (interpreting a million blocks
-    takes seconds)."""
-
-    WIDTH = 24
-    TICK_S = 0.25
-
-    def __init__(self, stages: list[str], stream=None, enabled: bool | None = None):
-        self.stream = stream if stream is not None else sys.stderr
-        if enabled is None:
-            isatty = getattr(self.stream, "isatty", None)
-            enabled = bool(isatty and isatty())
-        self.enabled = enabled
-        self.stages = list(stages)
-        self.started = 0
-        self.current = ""
-        self.t0 = time.perf_counter()
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._ticker: threading.Thread | None = None
-
-    def _draw(self) -> None:
-        n = len(self.stages)
-        done = max(self.started - 1, 0)
-        filled = self.WIDTH * done // max(n, 1)
-        bar = "#" * filled + "-" * (self.WIDTH - filled)
-        self.stream.write(f"\r\033[Kncsim [{bar}] {min(done + 1, n)}/{n} {self.current} "
-                          f"({time.perf_counter() - self.t0:.1f} s)")
-        self.stream.flush()
-
-    def _tick(self) -> None:
-        while not self._stop.wait(self.TICK_S):
-            with self._lock:
-                if not self._stop.is_set():
-                    self._draw()
-
-    def __call__(self, name: str) -> None:
-        self.started += 1
-        if not self.enabled:
-            return
-        with self._lock:
-            self.current = name
-            self._draw()
-        if self._ticker is None:
-            self._ticker = threading.Thread(target=self._tick, name="ncsim-progress", daemon=True)
-            self._ticker.start()
-
-    @contextmanager
-    def stage(self, name: str):
-        self(name)
-        yield
-
-    def close(self) -> None:
-        if self.enabled:
-            self._stop.set()
-            if self._ticker is not None:
-                self._ticker.join()
-            self.stream.write("\r\033[K")
-            self.stream.flush()
-
-
-def _echo_warnings(sim) -> None:
-    for warning in sim.warnings:
-        click.echo(warning.render(), err=True)
-
-
-# ---------------------------------------------------------------------------------------------
 # run
 # ---------------------------------------------------------------------------------------------
 
@@ -340,8 +186,10 @@ def _echo_warnings(sim) -> None:
 @simulation_options
 @click.option("--json", "as_json", is_flag=True,
               help="Print the JSON summary (README 'JSON summary') instead of text.")
+@click.option("--no-blocks", is_flag=True,
+              help="With --json: leave out the per-block list blocks_detail (large programs).")
 @click.option("--top", type=click.IntRange(min=0), default=10, show_default=True,
-              help="Blocks listed as losing the most time.")
+              help="Blocks and source lines listed as losing the most time.")
 @click.option("--trace", "trace_file", type=FilePath(), default=None,
               help="Write the sampled trace to this CSV file (README 'CSV trace').")
 @click.option("--dt", "dt_s", type=FiniteFloatRange(min=0, min_open=True), default=None,
@@ -351,23 +199,27 @@ def _echo_warnings(sim) -> None:
 @click.option("--crosscheck", is_flag=True,
               help="Compare every block with ruckig's time-optimal motion (slower).")
 @feed_unit_option("Feeds of the text output")
-def run_cmd(program, machine_name, as_json, top, trace_file, dt_s, trace_columns, crosscheck,
-            feed_unit, **params):
+def run_cmd(program, machine_name, as_json, no_blocks, top, trace_file, dt_s, trace_columns,
+            crosscheck, feed_unit, **params):
     """Simulate PROGRAM on MACHINE: cycle time, programmed against reached feed, the time
-    lost by cause (feed moves and rapids apart), and the blocks that lose the most time with
-    their line, the limit that holds them and what they lose the time to."""
-    from ncsim.report import summary as report
+    lost by cause (feed moves and rapids apart), the time by CAM operation, tool and source
+    line (h:mm:ss, with their N numbers), and the blocks that lose the most time with their
+    line, the limit that holds them and what they lose the time to."""
+    from ncsim.report import jsonout, summary as report
+    from ncsim.report.losses import losses
     from ncsim.pipeline import STAGES, release_freed_memory, simulate
 
     options = model_options(params)
-    _text_only_feed_unit(feed_unit, as_json)
+    text_only_feed_unit(feed_unit, as_json)
     nc = nc_options(params)
+    if no_blocks and not as_json:
+        raise UsageError("--no-blocks applies to the JSON summary: add --json")
     if not trace_file and (dt_s is not None or trace_columns != "default"):
         raise UsageError("--dt and --trace-columns apply to the trace: add --trace FILE.csv")
     stages = [*STAGES, *["cross-check"] * crosscheck, "summary"]
     if trace_file:
         stages += ["sample", "write CSV"]
-    progress = Progress(stages)
+    progress = Progress(stages, enabled=False if params.get("quiet") else None)
     try:
         sim = simulate(program, machine_name, options, setup_offsets=params["setup_file"],
                        progress=progress, nc_options=nc)
@@ -381,7 +233,8 @@ def run_cmd(program, machine_name, as_json, top, trace_file, dt_s, trace_columns
             with progress.stage("cross-check"):
                 check = run_crosscheck(sim.motion).summary()
         with progress.stage("summary"):
-            summary = report.summary(sim, top=top, include_blocks=as_json)
+            loss = losses(sim.motion)
+            summary = report.summary(sim, top=top, include_blocks=False, loss=loss)
             if check is not None:
                 summary["crosscheck"] = check
         rows = None
@@ -395,9 +248,11 @@ def run_cmd(program, machine_name, as_json, top, trace_file, dt_s, trace_columns
                 rows = write_trace_csv(trace, trace_file, columns=columns)
     finally:
         progress.close()
-    _echo_warnings(sim)
-    if as_json:
-        click.echo(summary_json(summary))
+    echo_warnings(sim.warnings, params.get("quiet"))
+    if as_json:   # the per-block list streamed, never held whole (jsonout)
+        sys.stdout.flush()
+        blocks = None if no_blocks else jsonout.block_chunks(sim.motion, loss)
+        jsonout.write_summary(sys.stdout, summary, blocks)
         return
     click.echo(report.format_text(summary, feed_unit), nl=False)
     if check is not None:
@@ -405,20 +260,6 @@ def run_cmd(program, machine_name, as_json, top, trace_file, dt_s, trace_columns
     if rows is not None:
         dt = sim.machine.ncu.ipo_cycle_s if dt_s is None else dt_s
         click.echo(f"\ntrace       {rows} samples every {s_to_ms(dt):g} ms written to {trace_file}")
-
-
-def summary_json(summary: dict) -> str:
-    """The summary as indented JSON, with one compact line per block of ``blocks_detail``
-    (an indented dump goes through Python's slow encoder: 3x the time on 100k blocks)."""
-    blocks = summary.get("blocks_detail")
-    head = {k: v for k, v in summary.items() if k != "blocks_detail"}
-    text = json.dumps(head, indent=1)
-    if blocks is None:
-        return text
-    encode = json.JSONEncoder().encode
-    rows = ",\n  ".join(encode(b) for b in blocks)
-    body = f"[\n  {rows}\n ]" if blocks else "[]"
-    return f'{text[:-2]},\n "blocks_detail": {body}\n}}'
 
 
 def _crosscheck_text(c: dict) -> str:
@@ -491,7 +332,7 @@ def plot_cmd(program, machine_name, trace_file, output, dt_s, rapids, range_text
 
         from ncsim.plan.sample import sample_motion, time_grid_s
         from ncsim.pipeline import STAGES, simulate
-        progress = Progress([*STAGES, "sample", "draw"])
+        progress = Progress([*STAGES, "sample", "draw"], enabled=False if params.get("quiet") else None)
         try:
             sim = simulate(program, machine_name, options, setup_offsets=params["setup_file"],
                            progress=progress, nc_options=nc)
@@ -504,7 +345,7 @@ def plot_cmd(program, machine_name, trace_file, output, dt_s, rapids, range_text
                 outline = None if window is None else view.part_outline_xy(sim.motion)
         finally:
             progress.close()
-        _echo_warnings(sim)
+        echo_warnings(sim.warnings, params.get("quiet"))
         motion, machine = sim.motion, sim.machine
         head = title or f"{os.path.basename(program)} on {machine.name}"
     from ncsim.report.plot import run_figure, save_figure
@@ -570,7 +411,7 @@ def check_cmd(program, machine_name, max_time_s, min_feed_ratio, max_limited_fra
                       max_limited_fraction=max_limited_fraction, baseline=baseline,
                       max_regression_pct=max_regression_pct, baseline_name=baseline_file or "",
                       allow_empty=allow_empty, strict=strict)
-    progress = Progress([*STAGES, "summary"])
+    progress = Progress([*STAGES, "summary"], enabled=False if params.get("quiet") else None)
     try:
         sim = simulate(program, machine_name, options, setup_offsets=params["setup_file"],
                        progress=progress, nc_options=nc)
@@ -579,7 +420,7 @@ def check_cmd(program, machine_name, max_time_s, min_feed_ratio, max_limited_fra
             summary = report.summary(sim, top=5, include_blocks=per_block)
     finally:
         progress.close()
-    _echo_warnings(sim)
+    echo_warnings(sim.warnings, params.get("quiet"))
     results = evaluate(summary, **thresholds)
     failed = [r for r in results if not r.ok]
     if as_json:
@@ -628,7 +469,7 @@ def explain_cmd(machine_name, radii_mm, plot_file, as_json, feed_unit) -> None:
     from ncsim.report.explain import DEFAULT_RADII_MM, direction_extremes, radius_table
     from ncsim.machine import load_machine
 
-    _text_only_feed_unit(feed_unit, as_json and not plot_file)
+    text_only_feed_unit(feed_unit, as_json and not plot_file)
     if plot_file:
         from ncsim.report.plot import check_figure_file
         check_figure_file(plot_file)
@@ -735,7 +576,9 @@ def warmup_cmd() -> None:
 # ---------------------------------------------------------------------------------------------
 
 cli.add_command(batch)
+cli.add_command(compare_cmd)
 cli.add_command(gap)
+cli.add_command(report_cmd)
 
 
 def one_line_warning(message, category, filename, lineno, line=None) -> str:

@@ -1,7 +1,7 @@
 """Click parameter types that reject what click lets through: NaN and infinite numbers
 (``--max-time nan`` would compare false with everything and pass or fail at random) and empty
 file names (``--trace ''`` would silently write nothing). Both fail as click usage errors:
-one line, exit 2."""
+one line, exit 2. And the ``--dialect`` option the program-reading commands share."""
 from __future__ import annotations
 
 import math
@@ -29,3 +29,12 @@ class FilePath(click.Path):
         if isinstance(value, str) and not value.strip():
             self.fail("the file name is empty.", param, ctx)
         return super().convert(value, param, ctx)
+
+
+def dialect_option(func):
+    """``--dialect siemens|iso``: the language the program starts in (ISO dialect mode is G291;
+    default: the machine file's ``[iso] dialect``, else Siemens)."""
+    return click.option("--dialect", type=click.Choice(["siemens", "iso"]), default=None,
+                        help="The language the program starts in: siemens (G290) or iso (ISO "
+                             "dialect milling, Fanuc-style, G291) [default: the machine file's "
+                             "[iso] dialect, else siemens].")(func)

@@ -87,12 +87,14 @@ class SubprogramFinder:
             self._listings[folder] = found
         return found
 
-    def find(self, name: str, first: FsPath | None = None) -> FsPath | None:
+    def find(self, name: str, first: FsPath | None = None, extensions=()) -> FsPath | None:
         """The file of subprogram ``name``: in ``first`` (the caller's folder), then the folders.
-        ``NAME.MPF`` before ``NAME.SPF`` (the control looks for a main program first)."""
+        ``NAME.MPF`` before ``NAME.SPF`` (the control looks for a main program first), then
+        ``NAME`` with one of ``extensions`` (ISO programs: ``.NC``, none, ...)."""
         if len(name) > MAX_NAME_CHARS:
             return None
-        keys = (f"{name}.MPF", f"{name}.SPF", f"_N_{name}_MPF", f"_N_{name}_SPF")
+        keys = (f"{name}.MPF", f"{name}.SPF", f"_N_{name}_MPF", f"_N_{name}_SPF",
+                *(f"{name}{ext}" for ext in extensions))
         folders = ([first] if first is not None else []) + [d for d in self.dirs if d != first]
         for folder in folders:
             listing = self._listing(folder)
@@ -188,6 +190,7 @@ class Calls:
             return None
         text = read_program_text(path)
         program = parse_text(text, str(path), fast=state.fast, macros=state.macros)
+        state.programs[str(path)] = program
         self.file_dirs[str(path)] = path.parent
         state.add_lines(program.n_lines)
         units = split_units(program, name, subprogram=True)

@@ -64,6 +64,8 @@ APPROXIMATE_KINDS = {
     "dwell": "a G4 S dwell without spindle speed is taken as 0 s",
     "spindle positioning": "spindle positioning (SPOS) times are not simulated",
     "system variable": "assignments to system variables are not simulated",
+    "FGROUP": "a path feed of other axes than X, Y, Z (FGROUP) is not simulated",
+    "ISO cycle": "spindle reversal and orientation in ISO canned cycles take no time here",
     **{name: "technology groups the machine file does not define run with its [axes] dynamics"
        for name in ("DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "DYNPREC")},
     **{name: f"{what} ({name}) is not simulated" for name, what in COMMANDS_NOT_SIMULATED.items()},
@@ -124,13 +126,14 @@ class Warnings:
         self._seen.add(key)
         n = self._counts[kind] = self._counts.get(kind, 0) + 1
         if n <= WARNING_CAP:
-            self.items.append(NcWarning(message, file, line, col))
+            self.items.append(NcWarning(message, file, line, col, kind))
         else:
             hidden = self._hidden.setdefault(kind, [0, file, line])
             hidden[0] += 1
 
     def result(self) -> tuple[NcWarning, ...]:
-        tail = [NcWarning(f"{n} more {kind} warnings not shown (the first of them here)", file, line)
+        tail = [NcWarning(f"{n} more {kind} warnings not shown (the first of them here)", file, line,
+                          kind=kind, more=n)
                 for kind, (n, file, line) in self._hidden.items()]
         return tuple(self.items + tail)
 
@@ -249,6 +252,7 @@ class InterpreterState:
         self.recorded: list[RecordedCall] = []
         self.units: dict = {}              # name -> ncsim.nc.flow.Unit (PROCs and files)
         self.macros: dict = {}             # DEFINE ... AS of the definitions files
+        self.programs: dict = {}           # file -> its parsed Program (ncsim.nc.outline)
         self.out: PathOutput | None = None
         self.ended = False
         self.line = 0                      # line of the block being executed

@@ -368,7 +368,9 @@ class OpCompiler(_FlowOps):
         item = unit.items[pc]
         generic = self.interp.generic_op
         if isinstance(item, P.PlainRun):
-            return self._plain_run(unit, pc, item) or generic
+            return (None if item.iso else self._plain_run(unit, pc, item)) or generic
+        if not isinstance(item, P.Block):       # ISO blocks (ncsim.nc.iso) run as they are
+            return generic
         if self.state.skip_blocks and item.skip_level is not None:
             return generic
         try:

@@ -2,7 +2,7 @@
 
 A line is *plain* when it is exactly (spaces or tabs allowed between and around words)::
 
-    [N<digits>] [G0|G1|G2|G3] [X<num>] [Y<num>] [Z<num>] [I<num>] [J<num>] [K<num>] [F<num>] [;comment]
+    [N<digits>] [G0|G1|G2|G3|G00|G01|G02|G03] [X<num>] [Y<num>] [Z<num>] [I<num>] [J<num>] [K<num>] [F<num>] [;comment]
 
 in this order, upper case, each word at most once, ``<num>`` = ``[+-](digits[.digits]|.digits)``
 with at most 15 significant digits and 22 decimals. Such lines are what CAM programs are made
@@ -101,13 +101,16 @@ def _scan_line(buf, a, b, letters, pow10, numbers, g, values, cols, row):
         numbers[row] = n
         pos = _skip_ws(buf, pos, b)
     if pos < b and buf[pos] == _G:
-        if pos + 1 >= b or not (48 <= buf[pos + 1] <= 51):
+        d = pos + 1
+        if d + 1 < b and buf[d] == 48 and _is_digit(buf[d + 1]):   # G00..G03 (ISO CAM output)
+            d += 1
+        if d >= b or not (48 <= buf[d] <= 51):
             return False
-        if pos + 2 < b and (_is_digit(buf[pos + 2]) or buf[pos + 2] == _DOT):
+        if d + 1 < b and (_is_digit(buf[d + 1]) or buf[d + 1] == _DOT):
             return False
         cols[row, 1] = pos - a + 1
-        g[row] = buf[pos + 1] - 48
-        pos = _skip_ws(buf, pos + 2, b)
+        g[row] = buf[d] - 48
+        pos = _skip_ws(buf, d + 1, b)
     for k in range(letters.shape[0]):
         if pos < b and buf[pos] == letters[k]:
             ok, value, end = _read_number(buf, pos + 1, b, pow10)

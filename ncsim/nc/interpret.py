@@ -99,14 +99,19 @@ from ncsim.machine import MachineSpec
 from ncsim.nc import program as P
 from ncsim.nc.calls import Calls
 from ncsim.nc.columns import ColumnPath
+from ncsim.nc.dialect import foreign_code
 from ncsim.nc.context import (BlockContext, InterpreterState, InterpretOptions, PathOutput,
                               RecordedCall, WordContext)
 from ncsim.nc.expr import Where
 from ncsim.nc.fastops import OpCompiler
 from ncsim.nc.flow import Flow, split_units
+from ncsim.nc.iso import IsoExec
+from ncsim.nc.isocalls import split_programs
+from ncsim.nc.isoparse import IsoBlock
 from ncsim.nc.macros import definition_macros
 from ncsim.nc.modal import COMPRESSOR_COMMANDS, DYNAMIC_COMMANDS
 from ncsim.nc.moves import Moves
+from ncsim.nc.outline import label_path
 from ncsim.nc.parse import parse_text, read_program_text
 from ncsim.nc.settings import Settings
 from ncsim.nc.variables import load_definitions
@@ -154,9 +159,13 @@ def interpret_text(text: str, file: str = "<string>", machine: MachineSpec | Non
                    setup_offsets: dict[str, tuple[float, float, float]] | None = None,
                    fast: bool = True, skip_blocks: bool = False,
                    search_dir: str | FsPath | None = None, subprograms=(),
-                   missing_subprograms: str = "error", definitions=()) -> InterpretResult:
+                   missing_subprograms: str = "error", definitions=(),
+                   dialect: str | None = None) -> InterpretResult:
     """Interpret program text. ``fast=False`` sends every line through the Lark grammar and
-    evaluates every block with the reference interpreter.
+    evaluates every block with the reference interpreter. ``dialect`` is the language the
+    program starts in, ``"siemens"`` or ``"iso"`` (ISO dialect mode, :mod:`ncsim.nc.iso`;
+    None: the machine file's ``[iso] dialect``); a program that fails and looks like other
+    code gets an error saying so (:mod:`ncsim.nc.dialect`).
 
     ``machine`` gives work offsets, circle tolerances and system variables; ``setup_offsets``
     (``{"G54": (x, y, z)}``) override its offsets. ``skip_blocks`` activates block skip (``/``
@@ -169,10 +178,19 @@ def interpret_text(text: str, file: str = "<string>", machine: MachineSpec | Non
                                definitions=tuple(FsPath(d) for d in definitions),
                                block_budget=block_budget, fast=fast, skip_blocks=skip_blocks)
     interp = Interpreter(machine, options, setup_offsets, search_dir)
+    spec = interp.iso.spec
+    start = dialect or spec.dialect
     interp.state.macros = definition_macros(options.definitions)
-    program = parse_text(text, file, fast=fast, macros=interp.state.macros)
     try:
+        program = parse_text(text, file, fast=fast, macros=interp.state.macros, dialect=start,
+                             iso_plain=not spec.standard_notation)
         return interp.run(program)
+    except NcError as exc:
+        foreign = foreign_code(text, file, start == "siemens") if exc.file == file else None
+        if foreign is None:
+            raise
+        foreign.warnings = getattr(exc, "warnings", ())
+        raise foreign from None
     finally:
         interp.close()
 
@@ -201,6 +219,7 @@ class Interpreter:
         self.ran_off_end = False     # the main program ran past its last line
         self.main_unit = None
         self.ops = OpCompiler(self)
+        self.iso = IsoExec(self)
         self.vector_min_rows = VECTOR_MIN_ROWS
 
     def run(self, program: P.Program) -> InterpretResult:
@@ -208,12 +227,14 @@ class Interpreter:
         until then (``error.warnings``), so that a caller can show what led to it."""
         state = self.state
         state.out = PathOutput(program.file, capacity=program.n_lines)   # one segment a line
+        state.programs[program.file] = program
         self.calls.main_file = program.file
         state.add_lines(program.n_lines)
         try:
             for definitions in state.options.definitions:
                 load_definitions(state, definitions)
-            units = split_units(program, FsPath(program.file).stem.upper() or "MAIN")
+            units = split_programs(split_units(program, FsPath(program.file).stem.upper() or
+                                               "MAIN"))
             self.main_unit = units[0]
             self.calls.add_units(units[1:])
             self.calls.push(units[0], (), 1)
@@ -225,7 +246,7 @@ class Interpreter:
         state.stack.clear()
         builder = state.out.builder
         builder.end_dwell_s = state.st.pending_dwell_s
-        path = builder.build()
+        path = label_path(builder.build(), state.programs, state.recorded)
         procs_only = len(units) > 1 and not any(_has_content(i) for i in units[0].items)
         complete = state.ended or not self.ran_off_end or procs_only
         self._warn_empty(program, path.n, complete, [u.name for u in units[1:]] * procs_only)
@@ -243,6 +264,7 @@ class Interpreter:
                 unit.ops.clear()
                 unit.items = []
         state.units.clear()
+        state.programs.clear()
         state.stack.clear()
         self.main_unit = None
 
@@ -311,7 +333,10 @@ class Interpreter:
             run = item.slice(fr.row) if fr.row else item
             fr.row = 0
             fr.pc += 1
-            self.exec_run(fr, run)
+            if run.iso:
+                self.iso.run(fr, run)
+            else:
+                self.exec_run(fr, run)
             return
         self.state.count(fr.unit.file, item.line)
         self.generic_uncounted(fr, pc)
@@ -326,7 +351,9 @@ class Interpreter:
         fr.pc = pc + 1
         if state.skip_blocks and item.skip_level is not None:
             return
-        if item.statement is not None:
+        if type(item) is IsoBlock:
+            self.iso.block(fr, item)
+        elif item.statement is not None:
             self.flow.execute(BlockContext(state, fr, item.line), item.statement)
         else:
             self.exec_block(fr, item)

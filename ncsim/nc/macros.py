@@ -90,6 +90,6 @@ def definition_macros(paths) -> dict[str, str]:
     from ncsim.nc.parse import normalize_newlines, read_program_text, upper_code
     macros: dict[str, str] = {}
     for path in paths:
-        _, macros = expand_macros(normalize_newlines(read_program_text(path)), str(path), macros,
-                                  upper_code)
+        text = normalize_newlines(read_program_text(path, "definitions file"))
+        _, macros = expand_macros(text, str(path), macros, upper_code)
     return macros

@@ -126,6 +126,10 @@ COMMANDS_NOT_SIMULATED = {
     "CUT2D": "2D cutter compensation", "CUT2DF": "2D cutter compensation",
     "CUT3DC": "3D cutter compensation", "CUT3DF": "3D cutter compensation",
     "WAITM": "channel synchronisation", "WAITE": "channel synchronisation",
+    # Programming Manual Fundamentals, "Rapid traverse movement (G0, RTLION, RTLIOF)": each axis
+    # at its own rapid traverse; the time is that of the interpolated straight line
+    # (max |d_i| / v_i) but for the axes' separate ramps
+    "RTLIOF": "G0 without linear interpolation: the axes' separate ramps",
 }
 
 # Motion commands whose path ncsim cannot build: an error, not a silently wrong path.

@@ -22,6 +22,7 @@ import codecs
 import re
 from functools import lru_cache
 from importlib import resources
+from dataclasses import replace
 from pathlib import Path as FsPath
 
 from lark import Lark, Token, Transformer
@@ -31,6 +32,8 @@ from lark.exceptions import (LarkError, UnexpectedCharacters, UnexpectedEOF, Une
 from ncsim.config import read_bytes
 from ncsim.nc import program as P
 from ncsim.errors import NcError, NcSyntaxError, shown
+from ncsim.nc.isoparse import parse_dialect_text, switches_dialect
+from ncsim.nc.outline import operation_comments
 
 # Words whose name is an 840D address (``X=..`` is a word, not a variable assignment).
 ADDRESSES = frozenset({
@@ -39,8 +42,8 @@ ADDRESSES = frozenset({
     "CTOL", "OTOL", "SPOS", "SPOSA", "LIMS",
 })
 # Addresses that take an index: ``AX[_Z]=`` (indirect axis), ``IP[_Z]=`` (its interpolation
-# parameter), ``SPOS[2]=``, ``LIMS[1]=`` ...; any other ``NAME[i]=`` is an array element.
-INDEXED_ADDRESSES = frozenset({"AX", "IP", "SPOS", "SPOSA", "LIMS", "S", "M", "T", "H"})
+# parameter), ``SPOS[2]=``, ``LIMS[1]=``, ``FGREF[C]=`` ...; any other ``NAME[i]=`` is an array element.
+INDEXED_ADDRESSES = frozenset({"AX", "IP", "SPOS", "SPOSA", "LIMS", "S", "M", "T", "H", "FGREF"})
 
 # "NAME (" that is a call, not a word and a comment: the PROC statement and the calls that real
 # programs write with a blank (Siemens' cycle sources, CYCLE_KONUS-like shop cycles).
@@ -444,27 +447,35 @@ def normalize_newlines(text: str) -> str:
 
 
 def parse_text(text: str, file: str = "<string>", *, fast: bool = True,
-               macros: dict[str, str] | None = None) -> P.Program:
+               macros: dict[str, str] | None = None, dialect: str = "siemens",
+               iso_plain: bool = True) -> P.Program:
     """Parse a whole program. ``fast`` reads plain lines with :mod:`ncsim.nc.fastparse`;
     ``macros`` (of a definitions file) and the program's own DEFINEs are expanded first
-    (:mod:`ncsim.nc.macros`)."""
+    (:mod:`ncsim.nc.macros`). ``dialect`` is the language the program starts in (``"iso"``:
+    ISO dialect mode, G291); a program that switches with G290/G291 is read by
+    :mod:`ncsim.nc.isoparse` (``iso_plain``: its ISO plain lines may be read as columns)."""
     from ncsim.nc.macros import expand_macros
     text, _ = expand_macros(normalize_newlines(text), file, macros, upper_code)
+    comments = operation_comments(text)
+    if dialect != "siemens" or switches_dialect(text):
+        program = parse_dialect_text(text, file, parse_block, fast=fast, dialect=dialect,
+                                     iso_plain=iso_plain)
+        return replace(program, operation_comments=comments)
     if fast:
         from ncsim.nc.fastparse import scan_program
-        return scan_program(text, file, parse_block)
+        return replace(scan_program(text, file, parse_block), operation_comments=comments)
     lines = text.split("\n")
     if lines and lines[-1] == "":
         lines.pop()
     items = tuple(parse_block(t, i + 1, file) for i, t in enumerate(lines))
-    return P.Program(file, items, len(lines))
+    return P.Program(file, items, len(lines), comments)
 
 
-def read_program_text(path: str | FsPath) -> str:
-    """The text of a program file: UTF-8, or Latin-1 (840D files often are) if not UTF-8. A
-    path that is no regular file (a FIFO, a device) is refused before reading
-    (``config.read_bytes``)."""
-    data = read_bytes(path, "program", error=NcError)
+def read_program_text(path: str | FsPath, what: str = "program") -> str:
+    """The text of a program file (or of another file in the 840D language, ``what`` it is
+    named in messages): UTF-8, or Latin-1 (840D files often are) if not UTF-8. A path that is no
+    regular file (a FIFO, a device) is refused before reading (``config.read_bytes``)."""
+    data = read_bytes(path, what, error=NcError)
     if data.startswith(codecs.BOM_UTF8):
         data = data[len(codecs.BOM_UTF8):]
     try:

@@ -317,6 +317,7 @@ class PlainRun:
     g: np.ndarray
     values: np.ndarray
     cols: np.ndarray
+    iso: bool = False    # read in ISO dialect mode (ncsim.nc.isoparse): the same words, its modes
 
     def __len__(self) -> int:
         return len(self.g)
@@ -342,16 +343,18 @@ class PlainRun:
     def rows(self, start: int, stop: int) -> "PlainRun":
         """The rows ``start:stop`` (views, no copy)."""
         return PlainRun(self.first_line + start, self.numbers[start:stop], self.g[start:stop],
-                        self.values[start:stop], self.cols[start:stop])
+                        self.values[start:stop], self.cols[start:stop], self.iso)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
 class Program:
-    """A parsed file: ``items`` in line order (Blocks and PlainRuns), ``n_lines`` lines."""
+    """A parsed file: ``items`` in line order (Blocks and PlainRuns), ``n_lines`` lines, and
+    the comment lines naming CAM operations, ``(line, name)`` (``ncsim.nc.outline``)."""
 
     file: str
     items: tuple
     n_lines: int
+    operation_comments: tuple = ()
 
     def blocks(self):
         """Every line as a Block (PlainRuns expanded), for tests and tools."""

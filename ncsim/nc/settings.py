@@ -9,13 +9,15 @@
   the block's X Y Z are their arguments, so a frame block makes no motion (:mod:`ncsim.nc.frames`);
 * F is mm/min (inch/min under G700), positive; S the spindle speed; D a tool offset (its
   compensation is not simulated, a warning when it changes); every M and H output stops the path
-  (M0 M1 M6 with a warning, their time is not simulated);
+  (M0 M1 with a warning, their time is not simulated; M6 stands still for the machine file's
+  tool-change time ``[tool_change] time_s``, and without it is a warning);
 * feed type (group 15): G94 feed per minute; G95 feed per revolution, the path feed is F x S
   (mm/rev x rev/min) while the spindle turns (M3/M4), G97 as G95 and G971 as G94 without a G96
   before (Programming Manual Fundamentals, "Feedrate (G93, G94, G95, F)"); F keeps its value
   when the feed type changes and is read in the new unit;
-* SBLOF/SBLON/DISPLOF/DISPLON (single block, display), SETMS and DRFOF (deletes handwheel
-  offsets, which ncsim has none of) change nothing that takes time;
+* SBLOF/SBLON/DISPLOF/DISPLON (single block, display), SETMS, RTLION (G0 with linear
+  interpolation, as simulated) and DRFOF (deletes handwheel offsets, which ncsim has none of)
+  change nothing that takes time;
 * DIAMOF/DIAMON/DIAM90/DIAMCYCOF select diameter programming of the transverse axis (G group
   29, :mod:`ncsim.nc.diameter`);
 * ADIS/ADISPOS are the G641 rounding distances, CTOL the contour tolerance of the compressor
@@ -51,7 +53,7 @@ _FRAME_COMMANDS = ("TRANS", "ATRANS", "ROT", "AROT", "SCALE", "ASCALE", "MIRROR"
 _TRANSFORMATIONS = ("TRAORI", "TRANSMIT", "TRACYL", "TRAANG")
 # DRFOF deletes the handwheel (DRF) offsets (Fundamentals, "Frames": "Deselecting the frame
 # (G53, G153, SUPA, G500)", DRFOF): ncsim has none to delete
-_NO_TIME_COMMANDS = ("SBLOF", "SBLON", "DISPLOF", "DISPLON", "SETMS", "DRFOF")
+_NO_TIME_COMMANDS = ("SBLOF", "SBLON", "DISPLOF", "DISPLON", "SETMS", "DRFOF", "RTLION")
 
 # Command words a block handles itself; any other name is a subprogram call.
 HANDLED_COMMANDS = frozenset(
@@ -260,8 +262,14 @@ class Settings:
         elif code == M_OPTIONAL_STOP:
             ctx.warn("M1", "M1 optional stop is not active in ncsim (ignored)", col)
         elif code == M_TOOL_CHANGE:
-            ctx.warn("M6", "M6 tool change: its time is not simulated", col)
             ctx.record("M6", ())
+            machine = self.state.machine
+            change_s = machine.tool_change_s if machine is not None else 0.0
+            if change_s > 0.0:    # the machine file's chip-to-chip time, standing still
+                st.pending_dwell_s += change_s
+            else:
+                ctx.warn("M6", "M6 tool change: its time is not simulated (no [tool_change] "
+                         "time_s in the machine file)", col)
 
     # ---- command words -----------------------------------------------------------------------
 

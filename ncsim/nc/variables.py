@@ -311,16 +311,11 @@ def load_definitions(state, path) -> None:
     ``DEF NCK|CHAN type name[dims][=init], ...`` lines define global user variables
     (Job planning, "Global user data (GUD)"). Comments, ``%_N_..._DEF``/``;$PATH=`` headers and
     the closing M30/M17 are allowed; any other block is an error at its line."""
-    from ncsim.errors import NcError
     from ncsim.nc.context import BlockContext, CallFrame
     from ncsim.nc.flow import Unit
     from ncsim.nc.parse import parse_text, read_program_text
 
-    try:
-        text = read_program_text(path)
-    except NcError as exc:
-        raise NcError(exc.message.replace("cannot read program", "cannot read definitions file"),
-                      str(path)) from None
+    text = read_program_text(path, "definitions file")
     program = parse_text(text, str(path), fast=False)
     frame = CallFrame(Unit("DEFINITIONS", str(path), []), 0)
     for block in program.blocks():

@@ -16,6 +16,8 @@
 * M, H, M<n>=, S<n>= are auxiliary functions (S<n>= is the speed of spindle n); SPOS= positions
   the spindle (its time is not simulated: a warning); LIMS= limits the speed under G96;
 * ``A[i]=SET(...)``/``REP(v)`` fill an array from element i on (:mod:`ncsim.nc.variables`);
+* ``FGROUP(X, Y, Z)`` names the axes of the path feed (others than the geometry axes: a
+  warning), ``FGREF[C]=r`` the reference radius of a rotary axis (recorded, warned);
 * a control keyword (IF, GOTOF, ...) must begin its own block; an unknown address is an error.
 
 A new NC word is read in :meth:`Words.word` (into one of the context's tables: ``gcodes``,
@@ -26,8 +28,9 @@ setting) or :mod:`ncsim.nc.moves` (a motion); a new G function is an entry of
 from __future__ import annotations
 
 from ncsim.nc import program as P
+from ncsim.nc.dialect import SIEMENS_MODE_ISO, iso_hint, siemens_mode_iso_code
 from ncsim.nc.diameter import VALUE_MODES
-from ncsim.nc.expr import evaluate_arg
+from ncsim.nc.expr import evaluate_arg, format_value
 from ncsim.nc.modal import CIP, CT, G_CODES, G_UNSUPPORTED, MOTION_NAMES
 
 AXES = ("X", "Y", "Z")
@@ -78,6 +81,8 @@ class Words:
                 self._command_word(ctx, item)
             elif isinstance(item, P.IndexedWord):
                 self._indexed_word(ctx, item)
+            elif item.name == "FGROUP":
+                self._fgroup(ctx, item)
             else:
                 scope = self.vars
                 args = tuple(None if a is None else evaluate_arg(a, scope, ctx) for a in item.args)
@@ -110,9 +115,27 @@ class Words:
                                       f"simulated", item.col)
             self.word(ctx, P.Word(address, item.value, item.col))
             return
+        if a == "FGREF":
+            axis = self._axis_name(ctx, item.index[0], a, item.col) if len(item.index) == 1 else ""
+            value = ctx.number(item.value, a)
+            ctx.record(f"FGREF[{axis}]", (value,))
+            ctx.warn("FGREF", f"FGREF[{axis}]={format_value(value)} (the reference radius of a "
+                     f"rotary axis in the path feed) is recorded: rotary axes are not simulated",
+                     item.col)
+            return
         for e in item.index:
             ctx.eval(e)
         self.word(ctx, P.Word(a, item.value, item.col))
+
+    def _fgroup(self, ctx, item: P.Call) -> None:
+        """FGROUP(axes): the axes the path feed F applies to (Programming Manual Fundamentals,
+        "Traversing axes with path feed (FGROUP, FGREF)"); FGROUP() and FGROUP(X, Y, Z) are the
+        geometry axes, what ncsim simulates; another group changes the time (a warning)."""
+        axes = [self._axis_name(ctx, a, "FGROUP", item.col) for a in item.args if a is not None]
+        ctx.record("FGROUP", tuple(axes))
+        if axes and sorted(axes) != list(AXES):
+            ctx.warn("FGROUP", f"FGROUP({', '.join(axes)}): the path feed of these axes is not "
+                     f"simulated (F is taken along the X, Y, Z path)", item.col)
 
     def _axis_name(self, ctx, expr, what: str, col: int) -> str:
         """The axis an index names: an AXIS variable's value or a bare X/Y/Z/A/B/C/U/V/W."""
@@ -196,8 +219,10 @@ class Words:
     def _gcode(self, ctx, code: int, col: int) -> None:
         if code in G_UNSUPPORTED:
             raise ctx.unsupported(f"{G_UNSUPPORTED[code]} is not simulated", col)
+        if code in SIEMENS_MODE_ISO:
+            code = siemens_mode_iso_code(ctx, code, col)
         if code not in G_CODES:
-            raise ctx.error(f"unknown G function G{code}", col)
+            raise ctx.error(f"unknown G function G{code}{iso_hint(code)}", col)
         group, _ = G_CODES[code]
         if group in ctx.gcodes:
             other = _g_name(group, ctx.gcodes[group][0])

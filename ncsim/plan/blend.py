@@ -70,7 +70,7 @@ same way in time (its crossing feed is the rounding's) but keeps its programmed 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -399,7 +399,7 @@ def _insert_blends(path: Path, corners, t1, t2, phi, deviation):
         col[row_of] = old
         col[blend_row] = inserted[name] if name in inserted else old[before]
         cols[name] = col
-    return Path(**cols, files=path.files, end_dwell_s=path.end_dwell_s), row_of, blend_row
+    return replace(path, **cols), row_of, blend_row   # its tables (files, tools) kept
 
 
 @dataclass(frozen=True, slots=True)

@@ -12,9 +12,9 @@ and what is shown comes from ``report.view``:
    thin grey vertical lines mark block boundaries, labelled by N number (or source line) when
    there are few;
 2. ``feed_path``  the same feeds against the *cutting* path length (rapids take no length);
-3. ``xy_path``    the XY projection coloured by the reached feed on the feed axis's scale, the
-   view framed on the cutting moves (equal aspect), rapids as thin grey lines, block
-   boundaries as dots;
+3. ``xy_path``    the XY projection coloured by the share of the programmed feed reached
+   (``view.feed_ratio``: red far below F, green at F), the view framed on the cutting moves
+   (equal aspect), rapids as thin grey lines, block boundaries as dots;
 4. ``accel``      tangential and per-axis acceleration (m/s^2) against time, with the axes'
    limits dashed (when the machine is known);
 5. ``jerk``       tangential and per-axis jerk (m/s^3) likewise, on a robust scale: values far
@@ -22,7 +22,11 @@ and what is shown comes from ``report.view``:
    note says why an axis jerk may exceed its limit (the paper's eq. 10 rule,
    ``view.jerk_notes``).
 
-Feeds are drawn in one unit (``feed_unit``, mm/min by default). A window (``view.Window``,
+A whole program of more than MAX_BOUNDARIES blocks is drawn as an overview instead
+(``report.overview``: feeds per slice by CAM operation, time by operation, XY and side views).
+The background shading is merged into runs a reader can see (``view.dominant_runs``); notes
+go under the bottom panel, below its axis label. Feeds are drawn in one unit (``feed_unit``,
+mm/min by default). A window (``view.Window``,
 from ``--range``) zooms every panel to a time span. A trace read from CSV may lack columns;
 the panels that need them are left out and :attr:`RunFigure.missing` says which columns each
 one needs. Only matplotlib's object API and the Agg canvas are used (no pyplot, no global
@@ -36,17 +40,17 @@ from dataclasses import dataclass
 import numpy as np
 from matplotlib import rc_context
 from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.collections import LineCollection, PolyCollection
-from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from matplotlib.gridspec import GridSpec
 from matplotlib.lines import Line2D
-from matplotlib.patches import Patch
 
 from ncsim.errors import UsageError
-from ncsim.motion import LIMIT_LABELS, Limit
+from ncsim.motion import Limit
 from ncsim.motion import Trace
 from ncsim.report import view
+from ncsim.report.drawing import (AXIS_COLORS, AXIS_NAMES, HIDDEN_CODE, RAPID_CODE, RAPID_COLOR,
+                                  feed_lines, feeds_of, finite_any, footer, frame, legend_above,
+                                  limit_legend, path_view, ratio_colorbar, runs, shade_limits)
 from ncsim.units import feed_from_mm_s, mm_min_to_mm_s, mm_s2_to_m_s2, mm_s3_to_m_s3
 
 FIGSIZE_IN = (16.0, 10.0)
@@ -56,11 +60,6 @@ MAX_LINE_LABELS = 30             # labels written at the boundaries at most
 DENSE_BLOCKS = 100               # more blocks in view: thinner lines
 MAX_PLOT_SAMPLES = 200_000       # longer traces are thinned (every k-th sample) for drawing
 FORMATS = ("png", "svg", "pdf")
-RAPID_COLOR = "0.55"             # rapids: thin and grey
-RAPID_SHADE = "#e4e4e4"          # background where a rapid runs
-RAPID_CODE = -1                  # limit code of a rapid sample in the shading
-HIDDEN_CODE = -2                 # not shaded (a hidden rapid)
-
 PANELS = ("feed_time", "feed_path", "xy_path", "accel", "jerk")
 PANEL_YLABELS = {
     "feed_time": "feed (mm/min)",
@@ -77,25 +76,6 @@ PANEL_NEEDS = {   # CSV columns a panel needs (any one of a group in brackets)
     "jerk": "jerk_t_mm_s3 or jx_mm_s3/jy_mm_s3/jz_mm_s3",
 }
 
-# a fixed colour per limit (shading), so that figures compare at a glance
-LIMIT_COLORS = {
-    "programmed": "#d9f0d3",
-    "ncu_path_jerk": "#fdb863",
-    "axis_jerk": "#e08214",
-    "axis_accel": "#b2abd2",
-    "axis_velocity": "#8073ac",
-    "cycle_time": "#f4a582",
-    "transition": "#92c5de",
-    "corner": "#4393c3",
-    "exact_stop": "#d6604d",
-    "lookahead": "#c2a5cf",
-    "program_end": "#e0e0e0",
-    "dwell": "#bababa",
-    "aux_stop": "#f6e8c3",
-    "none": "#ffffff",
-}
-AXIS_COLORS = ("C0", "C1", "C2")
-AXIS_NAMES = ("X", "Y", "Z")
 
 
 @dataclass(frozen=True)
@@ -112,19 +92,15 @@ class RunFigure:
 # What can be drawn
 # ---------------------------------------------------------------------------------------------
 
-def _finite_any(a: np.ndarray) -> bool:
-    return bool(len(a)) and bool(np.isfinite(a).any())
-
-
 def available_panels(trace: Trace) -> tuple[list[str], dict[str, str]]:
     """The panels ``trace`` has data for, and for the others the columns they need."""
     has = {
-        "feed_time": _finite_any(trace.t_s) and _finite_any(trace.feed_mm_s),
-        "feed_path": _finite_any(trace.s_mm) and _finite_any(trace.feed_mm_s),
-        "xy_path": (_finite_any(trace.pos_mm[:, 0]) and _finite_any(trace.pos_mm[:, 1])
-                    and _finite_any(trace.feed_mm_s)),
-        "accel": _finite_any(trace.accel_t_mm_s2) or _finite_any(trace.acc_mm_s2),
-        "jerk": _finite_any(trace.jerk_t_mm_s3) or _finite_any(trace.jerk_mm_s3),
+        "feed_time": finite_any(trace.t_s) and finite_any(trace.feed_mm_s),
+        "feed_path": finite_any(trace.s_mm) and finite_any(trace.feed_mm_s),
+        "xy_path": (finite_any(trace.pos_mm[:, 0]) and finite_any(trace.pos_mm[:, 1])
+                    and finite_any(trace.feed_mm_s)),
+        "accel": finite_any(trace.accel_t_mm_s2) or finite_any(trace.acc_mm_s2),
+        "jerk": finite_any(trace.jerk_t_mm_s3) or finite_any(trace.jerk_mm_s3),
     }
     if len(trace) == 0:
         has = dict.fromkeys(has, False)
@@ -135,44 +111,6 @@ def available_panels(trace: Trace) -> tuple[list[str], dict[str, str]]:
 # Helpers
 # ---------------------------------------------------------------------------------------------
 
-def _runs(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Maximal runs of equal codes: (first index, end index exclusive, code)."""
-    if len(codes) == 0:
-        return np.zeros(0, int), np.zeros(0, int), np.zeros(0, codes.dtype)
-    change = np.flatnonzero(np.diff(codes) != 0) + 1
-    start = np.concatenate([[0], change])
-    end = np.concatenate([change, [len(codes)]])
-    return start, end, codes[start]
-
-
-def _shade_limits(ax, x: np.ndarray, limit: np.ndarray) -> set[int]:
-    """Shade the background of ``ax`` by ``limit`` code over ``x``; returns the codes drawn
-    (RAPID_CODE is shaded grey, HIDDEN_CODE not at all).
-
-    A run of samples [i, j) is shaded from x[i] to x[j] (x[-1] for the last run)."""
-    start, end, code = _runs(limit)
-    if len(start) == 0:
-        return set()
-    x_lo = x[start]
-    x_hi = x[np.minimum(end, len(x) - 1)]
-    drawn = set()
-    for c in np.unique(code):
-        sel = (code == c) & (x_hi > x_lo)
-        if int(c) == HIDDEN_CODE or not np.any(sel):
-            continue
-        verts = [((a, 0.0), (a, 1.0), (b, 1.0), (b, 0.0)) for a, b in zip(x_lo[sel], x_hi[sel])]
-        if int(c) == RAPID_CODE:
-            color = RAPID_SHADE
-        else:
-            label = LIMIT_LABELS[int(c)] if 0 <= int(c) < len(LIMIT_LABELS) else "none"
-            color = LIMIT_COLORS.get(label, "#ffffff")
-        coll = PolyCollection(verts, facecolors=color, edgecolors="none", alpha=0.55, zorder=0,
-                              transform=ax.get_xaxis_transform())
-        ax.add_collection(coll, autolim=False)
-        drawn.add(int(c))
-    return drawn
-
-
 def _boundaries(ax, x: np.ndarray, labels: list[str] | None) -> None:
     if len(x) == 0:
         return
@@ -182,14 +120,6 @@ def _boundaries(ax, x: np.ndarray, labels: list[str] | None) -> None:
         for xi, text in zip(x, labels):
             ax.text(xi, 0.99, f" {text}", transform=ax.get_xaxis_transform(),
                     rotation=90, va="top", ha="left", fontsize=7, color="0.3", zorder=5)
-
-
-def _legend_above(ax, handles=None) -> None:
-    """A one-row legend above the axes, right-aligned (the title is on the left)."""
-    kwargs = {} if handles is None else {"handles": handles}
-    n = len(handles) if handles is not None else len(ax.get_legend_handles_labels()[0])
-    ax.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=max(n, 1), fontsize=8,
-              frameon=False, borderaxespad=0.1, handlelength=1.8, columnspacing=1.0, **kwargs)
 
 
 def _thin(trace: Trace, max_samples: int) -> tuple[np.ndarray, int]:
@@ -245,7 +175,7 @@ def _layout(fig: Figure, panels: list[str]) -> dict[str, object]:
     rows = 6
     cols = 2 if left and right else 1
     gs = GridSpec(rows, cols, figure=fig, width_ratios=[3, 2] if cols == 2 else [1],
-                  left=0.055, right=0.945, bottom=0.095, top=0.85, hspace=1.5, wspace=0.16)
+                  left=0.055, right=0.945, bottom=0.125, top=0.85, hspace=1.5, wspace=0.16)
     axes: dict[str, object] = {}
     share = None
     for column, names in ((0, left), (cols - 1, right)):
@@ -259,49 +189,6 @@ def _layout(fig: Figure, panels: list[str]) -> dict[str, object]:
                 share = ax
             axes[name] = ax
     return axes
-
-
-@dataclass(frozen=True)
-class _Feeds:
-    """The feed curves in the figure's unit, rapids apart."""
-    programmed: np.ndarray
-    setpoint: np.ndarray
-    cutting: np.ndarray       # reached feed, NaN on rapids
-    rapid: np.ndarray         # reached feed, NaN on cutting moves
-    top: float                # feed axis top
-    rapid_max: float          # fastest rapid in view (0 if none)
-
-
-def _feeds(trace: Trace, rapid: np.ndarray, unit: str) -> _Feeds:
-    def conv(v):
-        v = feed_from_mm_s(np.asarray(v, dtype=np.float64), unit)
-        return np.where(np.isfinite(v), v, np.nan)
-    reached = conv(trace.feed_mm_s)
-    rapid_feed = np.where(rapid, reached, np.nan)
-    return _Feeds(programmed=np.where(rapid, np.nan, conv(trace.programmed_mm_s)),
-                  setpoint=np.where(rapid, np.nan, conv(trace.setpoint_mm_s)),
-                  cutting=np.where(rapid, np.nan, reached), rapid=rapid_feed,
-                  top=float(feed_from_mm_s(view.feed_top_mm_s(trace, ~rapid), unit)),
-                  rapid_max=float(np.nanmax(rapid_feed)) if np.any(rapid & np.isfinite(reached)) else 0.0)
-
-
-def _feed_lines(ax, x, f: _Feeds, show_rapids: bool, unit: str, lw: float = 1.0) -> list:
-    handles = []
-    if _finite_any(f.programmed):
-        handles += ax.plot(x, f.programmed, color="0.25", lw=1.2, ls=":", label="programmed F")
-    if _finite_any(f.setpoint):   # dashes drown in many short blocks: solid and faint there
-        handles += ax.plot(x, f.setpoint, color="C3", lw=1.2 * lw, ls="--" if lw >= 1 else "-",
-                           alpha=1.0 if lw >= 1 else 0.6, label="set point (eq. 12)")
-    if show_rapids and _finite_any(f.rapid):
-        handles += ax.plot(x, f.rapid, color=RAPID_COLOR, lw=0.7, label="rapid (G0)")
-    handles += ax.plot(x, f.cutting, color="k", lw=1.4 * lw, label="reached feed")
-    ax.set_ylim(0.0, f.top)
-    if show_rapids and f.rapid_max > f.top:
-        digits = 0 if unit in ("mm/min",) else 2
-        ax.text(0.995, 0.97, f"rapids up to {f.rapid_max:.{digits}f} {unit}, off scale",
-                transform=ax.transAxes, ha="right", va="top", fontsize=7.5, color="0.35", zorder=6,
-                bbox=dict(facecolor="white", edgecolor="none", alpha=0.7, pad=1.5))
-    return handles
 
 
 def _axis_limit_lines(ax, peak: float, limits, moving, reference=None) -> tuple[bool, float, bool]:
@@ -335,9 +222,9 @@ def _mark_clipped(ax, t, series, colors, span) -> int:
             count += int(over.sum())
             if not over.any():
                 continue
-            start, end, code = _runs(over.astype(np.int8))
-            runs = [(a, b) for a, b, c in zip(start, end, code) if c]
-            peak = [a + int(np.argmax(sign * v[a:b])) for a, b in runs]
+            start, end, code = runs(over.astype(np.int8))
+            stretches = [(a, b) for a, b, c in zip(start, end, code) if c]
+            peak = [a + int(np.argmax(sign * v[a:b])) for a, b in stretches]
             ax.plot(t[peak], np.full(len(peak), sign * span * 0.965), ls="", marker=marker, ms=4,
                     color=color, markeredgecolor="k", markeredgewidth=0.3, zorder=6, clip_on=False)
     return count
@@ -349,7 +236,7 @@ def _dynamics(ax, t, tangential, per_axis, limits, convert, what: str, moving,
     values leave a gap in their curve (no stroke to the edge) and a mark at the edge."""
     per_axis = convert(per_axis)
     tangential = convert(tangential)
-    peak = max(float(np.nanmax(np.abs(a))) if _finite_any(a) else 0.0
+    peak = max(float(np.nanmax(np.abs(a))) if finite_any(a) else 0.0
                for a in (per_axis, tangential))
     lim = None if limits is None else convert(limits)
     ref = None if reference is None else convert(reference)
@@ -362,9 +249,9 @@ def _dynamics(ax, t, tangential, per_axis, limits, convert, what: str, moving,
         per_axis = np.where(np.abs(per_axis) > edge, np.nan, per_axis)
         tangential = np.where(np.abs(tangential) > edge, np.nan, tangential)
     for i in range(3):
-        if _finite_any(per_axis[:, i]) or (clipped and moving[i]):
+        if finite_any(per_axis[:, i]) or (clipped and moving[i]):
             ax.plot(t, per_axis[:, i], color=AXIS_COLORS[i], lw=0.8 * lw, label=f"{AXIS_NAMES[i]} axis")
-    if _finite_any(tangential) or clipped:
+    if finite_any(tangential) or clipped:
         ax.plot(t, tangential, color="k", lw=lw, label=f"tangential {what}")
     if drawn:
         ax.plot([], [], color="0.4", ls="--", lw=0.8, label="axis limits ±")
@@ -372,7 +259,7 @@ def _dynamics(ax, t, tangential, per_axis, limits, convert, what: str, moving,
         ax.plot([], [], ls="", marker="^", ms=4, color="0.5", markeredgecolor="k",
                 markeredgewidth=0.3, label="clipped")
     ax.axhline(0.0, color="0.6", lw=0.5)
-    _legend_above(ax)
+    legend_above(ax)
     return count, span / 1.12, peak
 
 
@@ -380,25 +267,13 @@ def _note_below(fig, ax, lines: list[str]) -> None:
     """Notes under a bottom panel, left-aligned with it (between its axis label and the
     figure's footer)."""
     if lines:
-        fig.text(ax.get_position().x0, 0.022, "\n".join(lines), ha="left", va="bottom",
+        fig.text(ax.get_position().x0, 0.006, "\n".join(lines), ha="left", va="bottom",
                  fontsize=7.5, color="0.15")
 
 
 def _wrap(text: str, width: int) -> str:
     import textwrap
     return "\n".join(textwrap.wrap(text, width))
-
-
-def _equal_aspect(box, height_over_width: float):
-    """Widen the shorter side of an XY box about its centre so that 1 mm is as long on both
-    axes of a panel ``height_over_width`` high per unit width."""
-    (x0, x1), (y0, y1) = box
-    w, h = x1 - x0, y1 - y0
-    if h / w < height_over_width:
-        grow = (w * height_over_width - h) / 2
-        return (x0, x1), (y0 - grow, y1 + grow)
-    grow = (h / height_over_width - w) / 2
-    return (x0 - grow, x1 + grow), (y0, y1)
 
 
 def run_figure(trace: Trace, *, motion=None, machine=None, title: str | None = None,
@@ -409,7 +284,9 @@ def run_figure(trace: Trace, *, motion=None, machine=None, title: str | None = N
     ``machine`` (default: the motion's) the axis limits drawn on the dynamics panels;
     ``rapids`` ``show`` (thin, grey) or ``hide``; ``window`` a time span to zoom to; ``numbers``
     the N number of each block of the motion (``view.block_numbers``) for the labels;
-    ``outline_xy`` the whole part (``view.part_outline_xy``), drawn faintly behind a zoom."""
+    ``outline_xy`` the whole part (``view.part_outline_xy``), drawn faintly behind a zoom.
+    A whole program of more than MAX_BOUNDARIES blocks is drawn as an overview
+    (``report.overview``)."""
     if rapids not in view.RAPIDS:
         raise UsageError(f"rapids must be one of {', '.join(view.RAPIDS)}, got {rapids!r}")
     panels, missing = available_panels(trace)
@@ -434,39 +311,43 @@ def run_figure(trace: Trace, *, motion=None, machine=None, title: str | None = N
         notes.append("rapids not told apart (the trace has no programmed_mm_min column)")
     elif not show and rapid.any():
         notes.append("rapids hidden")
+    bounds = _block_starts(trace, motion, numbers, s_cut)
+    if motion is not None and window is None and len(bounds.t) > MAX_BOUNDARIES:
+        from ncsim.report.overview import overview_figure
+        return overview_figure(trace, motion, title=title, rapids=rapids, feed_unit=feed_unit,
+                               notes=notes)
 
     fig = Figure(figsize=FIGSIZE_IN, dpi=DPI)
     FigureCanvasAgg(fig)
     axes = _layout(fig, panels)
     t = trace.t_s
-    bounds = _block_starts(trace, motion, numbers, s_cut)
     draw_bounds = len(bounds.t) <= MAX_BOUNDARIES
     if not draw_bounds:
         notes.append(f"{len(bounds.t) + 1} blocks in view: boundaries not drawn (zoom with --range)")
     limits_drawn: set[int] = set()
     has_limit = bool(len(trace.limit)) and not np.all(trace.limit == Limit.NONE)
     shade = np.where(rapid, RAPID_CODE if show else HIDDEN_CODE, trace.limit.astype(np.int64))
-    feeds = _feeds(trace, rapid, feed_unit)
+    feeds = feeds_of(trace, rapid, feed_unit)
     clipped: dict[str, int] = {}
     lw = 1.0 if len(bounds.t) <= DENSE_BLOCKS else 0.5     # many blocks: thin lines
 
     if "feed_time" in axes:
         ax = axes["feed_time"]
         if has_limit or rapid.any():
-            limits_drawn |= _shade_limits(ax, t, shade if has_limit else np.where(rapid, shade, HIDDEN_CODE))
-        handles = _feed_lines(ax, t, feeds, show, feed_unit, lw)
+            limits_drawn |= shade_limits(ax, t, shade if has_limit else np.where(rapid, shade, HIDDEN_CODE))
+        handles = feed_lines(ax, t, feeds, show, feed_unit, lw)
         if draw_bounds:
             _boundaries(ax, bounds.t, bounds.labels)
             handles.append(Line2D([], [], color="0.45", lw=0.6, label="block boundary"))
         ax.set_xlabel("time (s)")
         ax.set_xlim(t[0], t[-1])
         ax.set_title("feed against time", fontsize=10, loc="left")
-        _legend_above(ax, handles)
+        legend_above(ax, handles)
     if "feed_path" in axes:
         ax = axes["feed_path"]
         if has_limit:
-            limits_drawn |= _shade_limits(ax, s_cut, np.where(rapid, HIDDEN_CODE, shade))
-        _feed_lines(ax, s_cut, feeds, False, feed_unit, lw)
+            limits_drawn |= shade_limits(ax, s_cut, np.where(rapid, HIDDEN_CODE, shade))
+        feed_lines(ax, s_cut, feeds, False, feed_unit, lw)
         if draw_bounds:
             _boundaries(ax, bounds.s_cut[bounds.cutting], None)
         lo, hi = float(np.nanmin(s_cut)), float(np.nanmax(s_cut))
@@ -477,46 +358,10 @@ def run_figure(trace: Trace, *, motion=None, machine=None, title: str | None = N
         ax.set_title("feed along the cutting path (rapids take no length)" if known and rapid.any()
                      else "feed along the path", fontsize=10, loc="left")
     if "xy_path" in axes:
-        ax = axes["xy_path"]
-        xy = trace.pos_mm[:, :2]
-        seg = np.stack([xy[:-1], xy[1:]], axis=1)
-        seg_rapid = rapid[:-1] | rapid[1:]
-        norm = Normalize(0.0, feeds.top)
-        lc = LineCollection(seg[~seg_rapid], cmap="viridis", norm=norm, linewidths=2.0, zorder=2)
-        lc.set_array(0.5 * (feeds.cutting[:-1] + feeds.cutting[1:])[~seg_rapid])
-        ax.add_collection(lc)
-        handles = []
-        if outline_xy is not None and len(outline_xy):
-            ax.plot(outline_xy[:, 0], outline_xy[:, 1], color="0.8", lw=0.8, zorder=0.5)
-            handles.append(Line2D([], [], color="0.8", lw=0.8, label="rest of the part"))
-        rapid_seg = seg[seg_rapid]
-        if show and len(rapid_seg) and np.nanmax(np.abs(rapid_seg[:, 1] - rapid_seg[:, 0])) > 0:
-            ax.add_collection(LineCollection(rapid_seg, colors=RAPID_COLOR, linewidths=0.7,
-                                             linestyles="--", zorder=1), autolim=False)
-            handles.append(Line2D([], [], color=RAPID_COLOR, lw=0.7, ls="--", label="rapid (G0)"))
-        cb = fig.colorbar(lc, ax=ax, pad=0.02, fraction=0.05)
-        cb.set_label(f"reached feed ({feed_unit})")
-        first_cut = int(np.argmax(~rapid)) if (~rapid).any() else 0
-        ax.plot(xy[first_cut, 0], xy[first_cut, 1], "k^", ms=7, zorder=4)
-        handles.insert(0, Line2D([], [], color="k", marker="^", ls="", label="start"))
-        if draw_bounds and bounds.cutting.any():
-            b = bounds.xy[bounds.cutting]
-            ax.plot(b[:, 0], b[:, 1], "o", color="k", ms=3, zorder=3)
-            handles.append(Line2D([], [], color="k", marker="o", ms=3, ls="", label="block boundary"))
-        box = view.xy_limits(trace, ~rapid)
-        if box is not None:
-            pos = ax.get_position()   # after the colorbar took its share
-            fig_w, fig_h = fig.get_size_inches()
-            (x0, x1), (y0, y1) = _equal_aspect(box, pos.height * fig_h / (pos.width * fig_w))
-            ax.set_xlim(x0, x1)
-            ax.set_ylim(y0, y1)
-        ax.set_aspect("equal", adjustable="box")
-        ax.set_xlabel("X (mm)")
-        ax.set_title("XY path coloured by feed", fontsize=10, loc="left")
-        ax.legend(handles=handles, loc="best", fontsize=8, framealpha=0.85)
-    moving = [bool(_finite_any(trace.vel_mm_s[:, i]) and np.nanmax(np.abs(trace.vel_mm_s[:, i])) > 0)
-              or bool(_finite_any(trace.jerk_mm_s3[:, i]) and np.nanmax(np.abs(trace.jerk_mm_s3[:, i])) > 0)
-              or bool(_finite_any(trace.acc_mm_s2[:, i]) and np.nanmax(np.abs(trace.acc_mm_s2[:, i])) > 0)
+        _xy_panel(fig, axes["xy_path"], trace, rapid, show, outline_xy, bounds, draw_bounds)
+    moving = [bool(finite_any(trace.vel_mm_s[:, i]) and np.nanmax(np.abs(trace.vel_mm_s[:, i])) > 0)
+              or bool(finite_any(trace.jerk_mm_s3[:, i]) and np.nanmax(np.abs(trace.jerk_mm_s3[:, i])) > 0)
+              or bool(finite_any(trace.acc_mm_s2[:, i]) and np.nanmax(np.abs(trace.acc_mm_s2[:, i])) > 0)
               for i in range(3)]
     hide = (lambda a: np.where(rapid[:, None] if a.ndim == 2 else rapid, np.nan, a)) if not show \
         else (lambda a: a)
@@ -539,7 +384,7 @@ def run_figure(trace: Trace, *, motion=None, machine=None, title: str | None = N
             lines.append(f"▲▼ jerk beyond ±{span:.3g} m/s³ clipped and marked at the edge (up to {peak:.3g} m/s³)")
         shown = trace if show else trace.select(~rapid)
         lines += view.jerk_notes(shown, motion, machine, moving)
-        _note_below(fig, ax, [_wrap(x, 140) for x in lines][:3])
+        _note_below(fig, ax, [_wrap(x, 110) for x in lines][:3])
         ax.set_xlabel("time (s)")
         ax.set_title("jerk", fontsize=10, loc="left")
     for name, ax in axes.items():
@@ -549,14 +394,7 @@ def run_figure(trace: Trace, *, motion=None, machine=None, title: str | None = N
         if draw_bounds and name in ("accel", "jerk"):
             _boundaries(ax, bounds.t, None)
 
-    if limits_drawn:
-        order = sorted(limits_drawn)
-        patches = [Patch(facecolor=RAPID_SHADE if c == RAPID_CODE else LIMIT_COLORS.get(LIMIT_LABELS[c], "#fff"),
-                         alpha=0.55, edgecolor="0.6", label="rapid (G0)" if c == RAPID_CODE else LIMIT_LABELS[c])
-                   for c in [c for c in order if c != RAPID_CODE] + [c for c in order if c == RAPID_CODE]]
-        fig.legend(handles=patches, loc="upper center", bbox_to_anchor=(0.5, 0.935),
-                   ncol=min(len(patches), 8), fontsize=9, frameon=False,
-                   title="background: the limit holding the feed", title_fontsize=9)
+    limit_legend(fig, limits_drawn)
     if missing:
         notes.append("left out: " + "; ".join(f"{p} (needs {need})" for p, need in missing.items()))
     head = title or "ncsim run"
@@ -564,10 +402,34 @@ def run_figure(trace: Trace, *, motion=None, machine=None, title: str | None = N
     if window is not None:
         head += f"   view: {window.label}"
     fig.suptitle(head, fontsize=13, y=0.985)
-    if notes:
-        fig.text(0.5, 0.005, "; ".join(notes), ha="center", va="bottom", fontsize=8, color="0.35")
+    footer(fig, notes)
     return RunFigure(figure=fig, panels=tuple(axes), missing=missing, notes=tuple(notes),
                      axes=dict(axes), clipped=clipped)
+
+
+def _xy_panel(fig, ax, trace, rapid, show, outline_xy, bounds, draw_bounds) -> None:
+    """The XY path coloured by the share of the programmed feed reached, framed on the
+    cutting moves."""
+    xy = trace.pos_mm[:, :2]
+    lc = path_view(ax, xy, rapid, view.feed_ratio(trace), show_rapids=show)
+    handles = []
+    if outline_xy is not None and len(outline_xy):
+        ax.plot(outline_xy[:, 0], outline_xy[:, 1], color="0.8", lw=0.8, zorder=0.5)
+        handles.append(Line2D([], [], color="0.8", lw=0.8, label="rest of the part"))
+    if show and rapid.any():
+        handles.append(Line2D([], [], color=RAPID_COLOR, lw=0.7, ls="--", label="rapid (G0)"))
+    ratio_colorbar(fig, lc, ax, pad=0.02, fraction=0.05)
+    first_cut = int(np.argmax(~rapid)) if (~rapid).any() else 0
+    ax.plot(xy[first_cut, 0], xy[first_cut, 1], "k^", ms=7, zorder=4)
+    handles.insert(0, Line2D([], [], color="k", marker="^", ls="", label="start"))
+    if draw_bounds and bounds.cutting.any():
+        b = bounds.xy[bounds.cutting]
+        ax.plot(b[:, 0], b[:, 1], "o", color="k", ms=3, zorder=3)
+        handles.append(Line2D([], [], color="k", marker="o", ms=3, ls="", label="block boundary"))
+    frame(fig, ax, view.xy_limits(trace, ~rapid))
+    ax.set_xlabel("X (mm)")
+    ax.set_title("XY path: reached / programmed feed", fontsize=10, loc="left")
+    ax.legend(handles=handles, loc="best", fontsize=8, framealpha=0.85)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -33,6 +33,7 @@ import numpy as np
 from ncsim import __version__
 from ncsim.motion import LIMIT_LABELS, Limit, Phase
 from ncsim.plan.sample import block_table, limit_labels
+from ncsim.report.breakdown import structure_lines, structure_tables
 from ncsim.report.losses import cause_rows, losses
 from ncsim.report.tally import piece_tally, top_order
 from ncsim.units import feed_from_mm_s, mm_min_to_mm_s, mm_s_to_mm_min
@@ -84,6 +85,7 @@ def block_rows(motion, loss=None, index=None) -> dict[str, np.ndarray]:
     if path.n == 0:
         rows["limit"] = np.zeros(0, dtype=object)
         rows["lost_to"] = np.zeros(0, dtype=object)
+        rows["tables"] = ((), ())
         return rows
     loss = losses(motion) if loss is None else loss
     reference = loss.reference_mm_s[idx]
@@ -111,6 +113,9 @@ def block_rows(motion, loss=None, index=None) -> dict[str, np.ndarray]:
     code[held] = cap_limit[held]
     rows["limit"] = limit_labels(code)
     rows["file_index"] = path.file_index[idx].astype(np.int64)
+    for name in ("block_number", "tool", "operation"):     # where it is in the program
+        rows[name] = getattr(path, name)[idx]
+    rows["tables"] = (path.tools, path.operations)
     return rows
 
 
@@ -151,12 +156,13 @@ def feed_table(motion) -> list[dict]:
     return out
 
 
-def summary(sim, *, top: int = 10, include_blocks: bool = True) -> dict:
-    """The documented JSON summary of a :class:`~ncsim.pipeline.Simulation`."""
+def summary(sim, *, top: int = 10, include_blocks: bool = True, loss=None) -> dict:
+    """The documented JSON summary of a :class:`~ncsim.pipeline.Simulation` (``loss``: its
+    ``losses.losses`` when already computed)."""
     motion = sim.motion
     path = motion.path
     tbl = time_by_limit_s(motion)
-    loss = losses(motion)
+    loss = losses(motion) if loss is None else loss
     dur = motion.duration_s if path.n else np.zeros(0)
     feed_moves = ~path.rapid & (path.length_mm > 0) if path.n else np.zeros(0, bool)
     feed_time = float(dur[feed_moves].sum()) if path.n else 0.0
@@ -190,6 +196,7 @@ def summary(sim, *, top: int = 10, include_blocks: bool = True) -> dict:
         ideal_time_s=float(loss.ideal_s.sum()), lost_time_s=loss.total_lost_s,
         dwell_time_s=loss.dwell_s,
         lost_by_cause=cause_rows(loss, files, path),
+        **structure_tables(motion, loss, top), **tool_changes(sim),
         feeds=feed_table(motion),
         slowest_blocks=block_dicts(rows, files, slowest),
         slowest_rapids=block_dicts(rows, files, slowest_rapids),
@@ -199,6 +206,14 @@ def summary(sim, *, top: int = 10, include_blocks: bool = True) -> dict:
     if include_blocks:
         out["blocks_detail"] = block_dicts(rows, files, np.arange(path.n))
     return out
+
+
+def tool_changes(sim) -> dict:
+    """``tool_changes`` (M6 executed) and ``tool_change_s`` (the machine file's time of each,
+    0 when it gives none)."""
+    recorded = sim.interpreted.recorded if sim.interpreted is not None else ()
+    return {"tool_changes": sum(1 for r in recorded if r.name == "M6"),
+            "tool_change_s": float(sim.machine.tool_change_s)}
 
 
 def approximations(sim) -> dict:
@@ -228,9 +243,22 @@ def block_dicts(rows: dict, files, index) -> list[dict]:
         "limit": [str(v) for v in rows["limit"][idx].tolist()],
         "time_lost_s": rows["time_lost_s"][idx].astype(np.float64).tolist(),
         "lost_to": [str(v) for v in rows["lost_to"][idx].tolist()],
+        "n": _numbers(rows["block_number"][idx]),
+        "tool": _names(rows["tool"][idx], rows["tables"][0]),
+        "operation": _names(rows["operation"][idx], rows["tables"][1]),
     }
     keys = tuple(columns)
     return [dict(zip(keys, values)) for values in zip(*columns.values())]
+
+
+def _numbers(n: np.ndarray) -> list:
+    """N numbers as Python ints, None where a block has none (-1)."""
+    return np.where(n >= 0, n, None).tolist() if (n < 0).any() else n.tolist()
+
+
+def _names(codes: np.ndarray, names: tuple[str, ...]) -> list:
+    """The names a tool or operation column indexes, None where there is none (-1)."""
+    return np.asarray((*names, None), dtype=object)[codes].tolist()
 
 
 def _feeds(v_mm_s: np.ndarray) -> list:
@@ -276,6 +304,7 @@ def format_text(s: dict, feed_unit: str = "mm/min") -> str:
                          f"{feed(f['feed_max_mm_min'], 11)} {feed(f['feed_mean_mm_min'], 10)} "
                          f"{f['blocks']:8d} {f['time_s']:9.3f}")
     lines += _cause_lines(s)
+    lines += structure_lines(s, _where)
     for key, title, most in (("slowest_blocks", "feed blocks losing the most time", None),
                              ("slowest_rapids", "rapids losing the most time", TEXT_RAPIDS)):
         blocks = s.get(key) or []

@@ -346,3 +346,122 @@ def _rule_note(axes, jerk, mask, limit, j_tcurv, names, where: str) -> str:
     else:
         text += "while the feed ramps on an arc its tangential jerk adds to V³/R² (eq. 3)"
     return text
+
+
+# ---------------------------------------------------------------------------------------------
+# Whole programs: shading, operations, labels
+# ---------------------------------------------------------------------------------------------
+
+SHADE_BINS = 360          # slices of a panel's width: a shaded run is at least one slice wide
+
+
+def _slices(x: np.ndarray, bins: int) -> tuple[float, float, np.ndarray]:
+    """The slice (0 .. bins-1) of each sample interval of ``x`` (by its middle), the span's
+    start and the slice width."""
+    lo, width = float(x[0]), (float(x[-1]) - float(x[0])) / bins
+    mid = 0.5 * (x[:-1] + x[1:])
+    return lo, width, np.clip(((mid - lo) // width).astype(np.int64), 0, bins - 1)
+
+
+def _carry(values: np.ndarray, filled: np.ndarray) -> np.ndarray:
+    """``values`` with the unfilled entries taken from the filled one before (the first
+    filled one at the start)."""
+    idx = np.where(filled, np.arange(len(values)), -1)
+    np.maximum.accumulate(idx, out=idx)
+    first = int(np.argmax(filled)) if filled.any() else 0
+    return values[np.where(idx >= 0, idx, first)]
+
+
+def dominant_runs(x: np.ndarray, codes: np.ndarray, bins: int = SHADE_BINS,
+                  weights: np.ndarray | None = None, floor: tuple[int, float] | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(x_lo, x_hi, code)`` of the background shading: the span of ``x`` cut into ``bins``
+    equal slices, each given the code that holds it longest (each sample interval ``i`` counts
+    its length in ``x``, or ``weights[i]``: e.g. the time it loses), then equal neighbours
+    joined. A whole program's thousands of short limit changes become runs a reader can see
+    (a slice without samples keeps the code before it). With ``floor = (code, share)`` a slice
+    whose weights add to less than ``share`` of its length gets ``code`` (e.g. ``programmed``
+    where little time is lost)."""
+    x = np.asarray(x, dtype=np.float64)
+    codes = np.asarray(codes, dtype=np.int64)
+    if len(x) < 2 or not x[-1] > x[0]:
+        return np.zeros(0), np.zeros(0), np.zeros(0, dtype=np.int64)
+    lo, width, slot = _slices(x, bins)
+    dx = np.diff(x)
+    w = dx if weights is None else np.asarray(weights, dtype=np.float64)[:len(dx)]
+    kinds, code_index = np.unique(codes[:-1], return_inverse=True)
+    held = np.bincount(slot * len(kinds) + code_index, weights=w,
+                       minlength=bins * len(kinds)).reshape(bins, len(kinds))
+    win = kinds[held.argmax(axis=1)]
+    if floor is not None:
+        length = np.bincount(slot, weights=dx, minlength=bins)
+        win = np.where(held.sum(axis=1) < floor[1] * length, floor[0], win)
+    win = _carry(win, np.bincount(slot, minlength=bins) > 0)
+    change = np.flatnonzero(np.diff(win) != 0) + 1
+    start = np.concatenate([[0], change])
+    end = np.concatenate([change, [bins]])
+    return lo + start * width, lo + end * width, win[start]
+
+
+def slice_feeds(t: np.ndarray, feed: np.ndarray, bins: int = SHADE_BINS):
+    """Per slice of the time span (``bins`` of them): its middle time, the mean feed (path
+    length over time) and the lowest and highest feed reached (NaN feeds, e.g. rapids, left
+    out; a slice without any gives NaN). A whole program's feed, block after block from 0
+    to F and back, reads as its mean within its range."""
+    t = np.asarray(t, dtype=np.float64)
+    f = np.asarray(feed, dtype=np.float64)
+    nan = np.full(bins, np.nan)
+    if len(t) < 2 or not t[-1] > t[0]:
+        return nan, nan, nan, nan
+    lo, width, slot = _slices(t, bins)
+    mid_f = 0.5 * (f[:-1] + f[1:])
+    ok = np.isfinite(mid_f)
+    dt = np.diff(t)[ok]
+    covered = np.bincount(slot[ok], weights=dt, minlength=bins)
+    path = np.bincount(slot[ok], weights=mid_f[ok] * dt, minlength=bins)
+    mean = np.divide(path, covered, out=nan.copy(), where=covered > 0)
+    low, high = nan.copy(), nan.copy()
+    fs = np.where(np.isfinite(f), f, np.nan)
+    idx = np.clip(((t - lo) // width).astype(np.int64), 0, bins - 1)
+    valid = np.isfinite(fs)
+    np.fmin.at(low, idx[valid], fs[valid])
+    np.fmax.at(high, idx[valid], fs[valid])
+    return lo + (np.arange(bins) + 0.5) * width, mean, low, high
+
+
+def operation_spans(motion) -> list[tuple[float, float, str]]:
+    """``(t_start, t_end, name)`` of each stretch of consecutive blocks in one CAM operation,
+    in execution order (blocks outside any operation left out)."""
+    path = motion.path
+    if not path.n or not path.operations:
+        return []
+    op = path.operation
+    change = np.flatnonzero(np.diff(op) != 0) + 1
+    starts = np.concatenate([[0], change])
+    ends = np.concatenate([change, [path.n]])
+    return [(float(motion.t_start_s[a]), float(motion.t_end_s[b - 1]), path.operations[int(op[a])])
+            for a, b in zip(starts.tolist(), ends.tolist()) if op[a] >= 0]
+
+
+def label_rows(x: np.ndarray, widths: np.ndarray, rows: int) -> np.ndarray:
+    """The row (0 .. rows-1) of each label starting at ``x`` and ``widths`` wide, so that no
+    two overlap; -1 for a label with no room in any row (it is left out)."""
+    out = np.full(len(x), -1, dtype=np.int64)
+    free = [-np.inf] * rows
+    for i in np.argsort(x, kind="stable").tolist():
+        for r in range(rows):
+            if x[i] >= free[r]:
+                out[i] = r
+                free[r] = x[i] + widths[i]
+                break
+    return out
+
+
+def feed_ratio(trace: Trace) -> np.ndarray:
+    """Reached over programmed feed at each sample (NaN on rapids and where none is
+    programmed): where the program runs slower than its F words say."""
+    prog = np.asarray(trace.programmed_mm_s, dtype=np.float64)
+    ok = np.isfinite(prog) & (prog > 0)
+    out = np.full(len(trace), np.nan)
+    np.divide(trace.feed_mm_s, prog, out=out, where=ok)
+    return out

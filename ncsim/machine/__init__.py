@@ -19,8 +19,15 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ncsim.config import Problems, between, is_number, open_share, read_toml, share, share0
+from ncsim.config import Problems, between, open_share, read_toml, share, share0
 from ncsim.errors import ConfigWarning, MachineSpecError
+# the plausibility checks and the [dynamics] table live in submodules; their public names are
+# ncsim.machine's too
+from ncsim.machine.checks import (MIN_DERIVED_ACCEL_M_S2, MIN_DERIVED_JERK_M_S3, derived_limits,
+                                  unusual_values)
+from ncsim.machine.dynamics import (ALL_GROUPS_KEY, TECHNOLOGY_GROUPS, GroupDynamics, dump_dynamics,
+                                    group_limits, read_dynamics)
+from ncsim.machine.iso import IsoSpec, dump_iso, iso_spec
 from ncsim.path import BRISK, COMPCAD, COMPOF, COMPRESSOR_NAMES, DRIVE, SOFT
 from ncsim.units import (deg_to_rad, m_min_to_mm_s, m_s2_to_mm_s2, m_s3_to_mm_s3, mm_min_to_mm_s,
                          mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min, mm_s_to_mm_min, ms_to_s,
@@ -172,10 +179,13 @@ class MachineSpec:
     cycle832: Cycle832Spec = field(default_factory=Cycle832Spec)
     #: values of system variables programs read (``"$AN_NCK_VERSION"``, ``"$MA_X[Z]"``)
     system_variables: tuple[tuple[str, float | str], ...] = ()
+    #: how ISO dialect programs run (``[iso]``, :mod:`ncsim.machine.iso`)
+    iso: IsoSpec = field(default_factory=IsoSpec)
     #: ``[machine] type``: "milling" or "turning" (a lathe: G18 and DIAMON at reset, MACHINE_TYPES)
     kind: str = "milling"
     #: ``[dynamics]``: per technology group (TECHNOLOGY_GROUPS) axis limits
     dynamics: GroupDynamics | None = field(default=None, compare=False)
+    tool_change_s: float = 0.0   # an M6 tool change, chip to chip ([tool_change] time_s; 0: none)
 
     def defines_group(self, group: int) -> bool:
         """Whether the file says how technology group ``group`` (G group 59) runs."""
@@ -267,16 +277,11 @@ def overload_factor(v: float) -> str | None:
 # (toml key, spec field, required, check, converter to internal units). The ranges are what
 # is physically possible, with a wide margin around every real machine; inside them no
 # arithmetic of the planner overflows or divides by (almost) zero. What is possible but
-# unusual (often a value in the wrong unit) is a warning: see _USUAL below.
+# unusual (often a value in the wrong unit) is a warning: see ``checks._USUAL``.
 #: the least acceleration and jerk of an axis (the lower ends of their ranges)
 MIN_ACCEL_M_S2 = 1e-3
 MIN_JERK_M_S3 = 1e-3
-#: the least acceleration and jerk the planner may derive from several keys (a share of an
-#: axis value, :func:`_derived_limits`): a thousandth of an axis's least. Below it no machine
-#: moves (at 1e-6 m/s^2 a feed of 1 m/min takes 4.6 hours to reach); far below it the ramp
-#: formulas of eq. 16 underflow (a jerk of 1e-300 m/s^3 times a feed step is 0)
-MIN_DERIVED_ACCEL_M_S2 = 1e-6
-MIN_DERIVED_JERK_M_S3 = 1e-6
+
 
 _AXIS_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
     ("max_velocity_m_min", "max_velocity_mm_s", True, between(1e-3, 1e6, "m/min"), m_min_to_mm_s),
@@ -334,28 +339,8 @@ _STRUCTURE_KEYS = (
     ("radial_compliance_um_per_m_s2", "radial_compliance_mm_per_mm_s2", False,
      between(0.0, 1e4, "um/(m/s^2)"), um_per_m_s2_to_s2),
 )
-
-#: key -> (usual low, usual high, unit, [(unit it may be in, factor to the key's unit)]):
-#: values of real machine tools (840D machine data defaults and manufacturers' data); outside
-#: them a value is accepted with a warning that names the unit it looks like
-_USUAL: dict[str, tuple[float, float, str, tuple[tuple[str, float], ...]]] = {
-    "max_velocity_m_min": (0.5, 300.0, "m/min", (("mm/min", 1e-3), ("m/s", 60.0))),
-    "max_accel_m_s2": (0.05, 100.0, "m/s^2", (("mm/s^2", 1e-3),)),
-    "max_jerk_m_s3": (0.5, 1e5, "m/s^3", (("mm/s^3", 1e-3),)),
-    "curvilinear_jerk_m_s3": (0.5, 1e5, "m/s^3", (("mm/s^3", 1e-3),)),
-    "position_gain_1_s": (5.0, 300.0, "1/s", (("(m/min)/mm as MD32200 is entered", 1000.0 / 60.0),)),
-    "ipo_cycle_ms": (0.25, 50.0, "ms", (("s", 1e3), ("us", 1e-3))),
-    "transition_time_ms": (0.25, 200.0, "ms", (("s", 1e3), ("us", 1e-3))),
-    "exact_stop_fine_settle_ms": (0.0, 1000.0, "ms", (("us", 1e-3),)),
-    "exact_stop_coarse_settle_ms": (0.0, 1000.0, "ms", (("us", 1e-3),)),
-}
-#: a jerk that reaches the axis acceleration within this share of the IPO cycle acts on no
-#: interpolation cycle: most likely 1000x too large (mm/s^3 in an m/s^3 key)
-_JERK_RAMP_MIN_CYCLES = 0.05
-#: one jerk of a machine (axes, path) this many times off all the others: likely in another
-#: unit (real machines' axis jerks differ by 10x or so, e.g. the paper's Table 1)
-_JERK_SPREAD = 100.0
-
+#: ``[tool_change]``: the machine builder's tool-change time (no 840D machine data holds it)
+_TOOL_CHANGE_KEYS = (("time_s", "tool_change_s", False, between(0.0, 1e4, "s"), float),)
 
 def _read_old_corner_key(data: dict[str, Any], c: Problems) -> dict[str, Any]:
     """``[ncu] corner_velocity_jump_factor = k`` of earlier versions, read as
@@ -381,12 +366,15 @@ def _read_old_corner_key(data: dict[str, Any], c: Problems) -> dict[str, Any]:
     return {**data, "ncu": ncu, "axes": axes}
 
 
+_NCU_DEFAULTS = {f.name: f.default for f in fields(NcuSpec)}
+
+
 def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineSpec:
     """Validate a parsed machine file; every problem is collected into one
     :class:`~ncsim.errors.MachineSpecError`."""
     c = Problems(file, MachineSpecError)
     c.unknown(data, "", {"machine", "axes", "ncu", "work_offsets", "structure", "cycle832",
-                         "system_variables", "dynamics"})
+                         "system_variables", "dynamics", "iso", "tool_change"})
     data = _read_old_corner_key(data, c)
 
     mtab = c.table(data, "machine", required=True)
@@ -474,65 +462,23 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
             if v is not None:
                 offsets.append((key, v))
 
-    stab = c.table(data, "structure")
-    c.unknown(stab, "structure", {k for k, *_ in _STRUCTURE_KEYS})
-    svalues = {}
-    for k, f, req, chk, conv in _STRUCTURE_KEYS:
-        v = c.number(stab, "structure", k, required=req, check=chk, convert=conv)
-        if v is not None:
-            svalues[f] = v
+    svalues = c.numbers(data, "structure", _STRUCTURE_KEYS)
 
     sysvars = _system_variables(c, c.table(data, "system_variables"))
-    dynamics = _read_dynamics(c, c.table(data, "dynamics"), axes)
+    iso = iso_spec(c, data)
+    dynamics = read_dynamics(c, c.table(data, "dynamics"), axes)
     if len(axes) == len(AXIS_NAMES) and not c:
-        _derived_limits(c, axes, ncu_values)
+        least_accel_mm_s2 = float(group_limits(axes, dynamics)[:, 1, :].min())
+        derived_limits(c, least_accel_mm_s2, ncu_values, _NCU_DEFAULTS)
+    tool_change = c.numbers(data, "tool_change", _TOOL_CHANGE_KEYS)
     c.raise_if_any()
-    _unusual_values(c, {f"axes.{a}": atab[a] for a in AXIS_NAMES} | {"ncu": ntab})
+    unusual_values(c, {f"axes.{a}": atab[a] for a in AXIS_NAMES} | {"ncu": ntab})
     return MachineSpec(name=name, description=description, axes=tuple(axes),
                        ncu=NcuSpec(**ncu_values), source=file,
                        work_offsets_mm=tuple(offsets), structure=StructureSpec(**svalues),
                        warnings=tuple(c.warnings), cycle832=cycle832,
-                       system_variables=sysvars, kind=kind, dynamics=dynamics)
-
-
-_NCU_DEFAULTS = {f.name: f.default for f in fields(NcuSpec)}
-
-
-def _derived_limits(c: Problems, axes: list[AxisSpec], ncu: dict[str, Any]) -> None:
-    """The jerk and accelerations the planner derives from several keys, each at least
-    ``MIN_DERIVED_JERK_M_S3`` / ``MIN_DERIVED_ACCEL_M_S2``: each key may lie in its range while
-    their product leaves the ramps nothing (a tangential jerk share of 1e-300, an acceleration
-    of 0 that no ramp reaches a feed with). Noted on the key that makes the value small."""
-    j_tcurv = mm_s3_to_m_s3(ncu["curvilinear_jerk_mm_s3"] * ncu["tangential_jerk_share"])
-    if j_tcurv < MIN_DERIVED_JERK_M_S3:
-        c.add("ncu.tangential_jerk_share",
-              f"gives J_tcurv = curvilinear_jerk_m_s3 x tangential_jerk_share = {j_tcurv:.3g} "
-              f"m/s^3 (paper eq. 10), below {MIN_DERIVED_JERK_M_S3:g} m/s^3: the NCU could not "
-              f"ramp the path feed")
-    a_min = mm_s2_to_m_s2(min(a.max_accel_mm_s2 for a in axes))
-    normal = _ncu_value(ncu, "normal_accel_share")
-    tangential = (1.0 - normal[0]) * a_min        # left on an arc at its set point (eq. 1)
-    if tangential < MIN_DERIVED_ACCEL_M_S2:
-        c.add("ncu.normal_accel_share",
-              f"{normal[1]} leaves (1 - share) x {a_min:g} m/s^2 = {tangential:.3g} m/s^2 of the "
-              f"weakest axis's acceleration to the feed ramps on an arc at its set point "
-              f"(eq. 1), below {MIN_DERIVED_ACCEL_M_S2:g} m/s^2")
-        return
-    reduction = ncu.get("drive_accel_reduction_ratio", _NCU_DEFAULTS["drive_accel_reduction_ratio"])
-    drive = (1.0 - reduction) * tangential
-    if drive < MIN_DERIVED_ACCEL_M_S2:
-        c.add("ncu.drive_accel_reduction_ratio",
-              f"DRIVE keeps (1 - {reduction:g}) of the acceleration at the maximum velocity "
-              f"(MD35230, the knee-shaped characteristic of 840D B2): {drive:.3g} m/s^2 of the "
-              f"weakest axis's on an arc at its set point, below {MIN_DERIVED_ACCEL_M_S2:g} "
-              f"m/s^2: no ramp would reach that velocity")
-
-
-def _ncu_value(ncu: dict[str, Any], key: str) -> tuple[float, str]:
-    """``(value, how to name it)`` of an [ncu] key, its default when the file has none."""
-    if key in ncu:
-        return ncu[key], f"{ncu[key]:g}"
-    return _NCU_DEFAULTS[key], f"the default {_NCU_DEFAULTS[key]:g}"
+                       system_variables=sysvars, kind=kind, dynamics=dynamics, iso=iso,
+                       **tool_change)
 
 
 _SYSVAR_KEY = re.compile(r"^\$[A-Z_][A-Z0-9_]*(\[[A-Z0-9_]+(,[A-Z0-9_]+)*\])?$")
@@ -554,61 +500,6 @@ def _system_variables(c: Problems, table: dict) -> tuple:
         else:
             out.append((name, value if isinstance(value, str) else float(value)))
     return tuple(out)
-
-
-def _unusual_values(c: Problems, tables: dict[str, dict]) -> None:
-    """Warn about valid values outside the usual range of real machines (``_USUAL``), naming
-    the unit they look like; and about an axis jerk that reaches the axis acceleration within
-    a fraction of an interpolation cycle (1000x too large, e.g. mm/s^3)."""
-    for prefix, table in tables.items():
-        for key, value in table.items():
-            if key not in _USUAL or not is_number(value):
-                continue
-            lo, hi, unit, others = _USUAL[key]
-            if lo <= value <= hi:
-                continue
-            guesses = [f"in {name}? that is {value * factor:.4g} {unit}" for name, factor in others
-                       if lo <= value * factor <= hi]
-            c.warn(f"{prefix}.{key}", f"{value:g} {unit} is outside the usual {lo:g}..{hi:g} "
-                   f"{unit}" + (f" ({'; '.join(guesses)})" if guesses else ""))
-    _unusual_jerks(c, tables)
-
-
-def _unusual_jerks(c: Problems, tables: dict[str, dict]) -> None:
-    """A jerk 1000x off (mm/s^3 in an m/s^3 key) can still lie in the usual range, so two more
-    signs are looked for: one jerk ``_JERK_SPREAD`` times above or below all the others (the
-    axes' and the path's, MD32431 and J_curv), and an axis jerk that reaches the axis
-    acceleration within ``_JERK_RAMP_MIN_CYCLES`` of an interpolation cycle (it would limit
-    nothing the NC interpolates)."""
-    jerks = {f"{p}.max_jerk_m_s3": t.get("max_jerk_m_s3") for p, t in tables.items()
-             if p.startswith("axes.")}
-    jerks["ncu.curvilinear_jerk_m_s3"] = tables["ncu"].get("curvilinear_jerk_m_s3")
-    jerks = {k: float(v) for k, v in jerks.items() if is_number(v) and v > 0}
-    flagged = {w.key for w in c.warnings}     # one warning a key
-    for key, value in jerks.items():
-        others = [v for k, v in jerks.items() if k != key]
-        if len(others) < 2 or key in flagged:
-            continue
-        if value >= _JERK_SPREAD * max(others):
-            flagged.add(key)
-            c.warn(key, f"{value:g} m/s^3 is over {_JERK_SPREAD:g} times every other jerk of the "
-                   f"machine (at most {max(others):g} m/s^3; in mm/s^3? that is "
-                   f"{value * 1e-3:.4g} m/s^3)")
-        elif value * _JERK_SPREAD <= min(others):
-            flagged.add(key)
-            c.warn(key, f"{value:g} m/s^3 is under 1/{_JERK_SPREAD:g} of every other jerk of the "
-                   f"machine (at least {min(others):g} m/s^3; 1000 times too small?)")
-    ipo_ms = tables["ncu"].get("ipo_cycle_ms")
-    for ax in AXIS_NAMES:
-        key = f"axes.{ax}.max_jerk_m_s3"
-        accel = tables[f"axes.{ax}"].get("max_accel_m_s2")
-        if key in flagged or key not in jerks or not (is_number(ipo_ms) and is_number(accel)):
-            continue
-        ramp_ms = s_to_ms(accel / jerks[key])
-        if ramp_ms < _JERK_RAMP_MIN_CYCLES * ipo_ms:
-            c.warn(key, f"{jerks[key]:g} m/s^3 reaches max_accel_m_s2 = {accel:g} in "
-                   f"{ramp_ms:.2g} ms, a small fraction of the interpolation cycle ({ipo_ms:g} ms): "
-                   f"it would limit nothing (in mm/s^3? that is {jerks[key] * 1e-3:.4g} m/s^3)")
 
 
 def _cycle832_spec(c: Problems, data: dict) -> Cycle832Spec:
@@ -720,7 +611,7 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
               f"reset_plane = \"G{n.reset_plane}\"  # MD20150 (group 6)",
               f"reset_diameter_mode = {_q(_name_of(DIAMETER_MODES, n.reset_diameter_mode))}  # MD20150 (group 29)",
               f"diameter_axis = {_q(AXIS_NAMES[n.diameter_axis])}  # MD20100 $MC_DIAMETER_AX_DEF"]
-    lines += _dump_dynamics(spec.dynamics)
+    lines += dump_dynamics(spec.dynamics)
     if spec.work_offsets_mm:
         lines += ["", "[work_offsets]"]
         for key, (x, y, z) in spec.work_offsets_mm:
@@ -735,10 +626,13 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
             e = spec.cycle832.expansion(CYCLE832_TYPES.index(t))
             lines += ["", f"[cycle832.{t}]"]
             lines += [f"{k} = {_q(fmt(getattr(e, k)))}" for k, fmt in names.items()]
+    lines += dump_iso(spec.iso)
     if spec.system_variables:
         lines += ["", "[system_variables]"]
         for key, value in spec.system_variables:
             lines.append(f"{_q(key)} = {_q(value) if isinstance(value, str) else _f(value)}")
+    if spec.tool_change_s:
+        lines += ["", "[tool_change]", f"time_s = {_f(spec.tool_change_s)}  # M6, chip to chip"]
     if spec.structure.radial_compliance_mm_per_mm_s2:
         lines += ["", "[structure]",
                   f"radial_compliance_um_per_m_s2 = {_f(s2_to_um_per_m_s2(spec.structure.radial_compliance_mm_per_mm_s2))}"]
@@ -760,88 +654,3 @@ def _f(v: float) -> str:
 
 def _q(s: str) -> str:
     return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
-
-
-# ---------------------------------------------------------------------------------------------
-# Technology-group dynamics (G group 59): the [dynamics] table
-# ---------------------------------------------------------------------------------------------
-# Job planning, "Dynamic response mode for path interpolation (DYNNORM ... DYNPREC)"; B2
-# "Acceleration": MD32300 $MA_MAX_AX_ACCEL[n] and MD32431 $MA_MAX_AX_JERK[n] are arrays indexed
-# by the group n (0 DYNNORM = [axes], 1 DYNPOS, 2 DYNROUGH, 3 DYNSEMIFIN, 4 DYNFINISH, 5
-# DYNPREC); the DYN... words and CYCLE832's machining type select it. ncsim also takes a velocity
-# per group (MD32000 is one value on the 840D: for a machine builder's per-group override).
-# [dynamics.<GROUP>.<axis>] keys default to the [axes] value; [dynamics] same_for_all_groups =
-# true declares one set for every group. A group given neither way runs with [axes], warned.
-TECHNOLOGY_GROUPS = ("DYNNORM", "DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "DYNPREC")
-ALL_GROUPS_KEY = "same_for_all_groups"
-_GROUP_KEYS = (("max_velocity_m_min", 0, between(1e-3, 1e6, "m/min"), m_min_to_mm_s),
-               ("max_accel_m_s2", 1, between(1e-3, 1e6, "m/s^2"), m_s2_to_mm_s2),
-               ("max_jerk_m_s3", 2, between(1e-3, 1e9, "m/s^3"), m_s3_to_mm_s3))
-
-
-@dataclass(frozen=True, slots=True)
-class GroupDynamics:
-    """``limits[g]``: (velocity mm/s, accel mm/s^2, jerk mm/s^3) x (X, Y, Z) of group g where
-    ``given[g]``; ``same_for_all``: the explicit one-set declaration."""
-
-    limits: np.ndarray            # (len(TECHNOLOGY_GROUPS), 3 quantities, 3 axes)
-    given: tuple[bool, ...]
-    same_for_all: bool = False
-
-    def defines(self, group: int) -> bool:
-        return group == 0 or self.same_for_all or self.given[group]
-
-
-def group_limits(axes, dynamics: GroupDynamics | None) -> np.ndarray:
-    """(group, quantity, axis): the given groups' values, every other group the ``[axes]``."""
-    one = [[getattr(a, f) for a in axes]
-           for f in ("max_velocity_mm_s", "max_accel_mm_s2", "max_jerk_mm_s3")]
-    table = np.repeat(np.array(one)[None], len(TECHNOLOGY_GROUPS), axis=0)
-    if dynamics is not None:
-        given = np.array(dynamics.given)
-        table[given] = dynamics.limits[given]
-    return table
-
-
-def _read_dynamics(c: Problems, table: dict, axes) -> GroupDynamics | None:
-    """The ``[dynamics]`` table over the ``[axes]`` values; None without one."""
-    if not table or len(axes) != len(AXIS_NAMES):
-        return None
-    c.unknown(table, "dynamics", {ALL_GROUPS_KEY, *TECHNOLOGY_GROUPS[1:]},
-              "unknown key (the groups are DYNPOS, DYNROUGH, DYNSEMIFIN, DYNFINISH, DYNPREC; "
-              "DYNNORM is [axes])")
-    same = bool(c.boolean(table, "dynamics", ALL_GROUPS_KEY))
-    limits, given = group_limits(axes, None), [False] * len(TECHNOLOGY_GROUPS)
-    for g, group in enumerate(TECHNOLOGY_GROUPS[1:], start=1):
-        gtab = c.table(table, group, prefix="dynamics")
-        if group not in table:
-            continue
-        if same:
-            c.add(f"dynamics.{group}", f"{ALL_GROUPS_KEY} = true says every group runs with the "
-                  f"[axes] values: give either it or per-group values")
-        c.unknown(gtab, f"dynamics.{group}", set(AXIS_NAMES))
-        given[g] = True
-        for i, axis in enumerate(AXIS_NAMES):
-            prefix = f"dynamics.{group}.{axis}"
-            atab = c.table(gtab, axis, prefix=f"dynamics.{group}")
-            c.unknown(atab, prefix, {k for k, *_ in _GROUP_KEYS})
-            for key, q, check, convert in _GROUP_KEYS:
-                v = c.number(atab, prefix, key, check=check, convert=convert)
-                if v is not None:
-                    limits[g, q, i] = v
-    limits.setflags(write=False)
-    return GroupDynamics(limits, tuple(given), same)
-
-
-def _dump_dynamics(dyn: GroupDynamics | None) -> list[str]:
-    if dyn is None:
-        return []
-    lines = ["", "[dynamics]", f"{ALL_GROUPS_KEY} = true"] if dyn.same_for_all else []
-    for g in (g for g in range(1, len(TECHNOLOGY_GROUPS)) if dyn.given[g]):
-        for i, axis in enumerate(AXIS_NAMES):
-            v, a, j = dyn.limits[g, :, i]
-            lines += ["", f"[dynamics.{TECHNOLOGY_GROUPS[g]}.{axis}]",
-                      f"max_velocity_m_min = {_f(mm_s_to_m_min(v))}",
-                      f"max_accel_m_s2 = {_f(mm_s2_to_m_s2(a))}  # MD32300 $MA_MAX_AX_ACCEL[{g}]",
-                      f"max_jerk_m_s3 = {_f(mm_s3_to_m_s3(j))}  # MD32431 $MA_MAX_AX_JERK[{g}]"]
-    return lines
