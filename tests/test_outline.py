@@ -113,8 +113,11 @@ def test_block_path_and_column_path_label_alike():
 
 
 def test_rounding_block_carries_the_block_it_rounds_out_of(mikron):
-    """G642 inserts a rounding block at the corner: it belongs to the block before it."""
-    sim = simulate("corner.mpf", mikron, text="N10 G90 G642 SOFT F3000\nN20 G1 X50\n"
+    """G642 inserts a rounding block at the corner: it belongs to the block before it. (A
+    machine whose G64 corner stops, MD32310 = 1, and CTOL 0.05 at F600: there the rounding
+    saves time; ``plan.blend`` keeps G64 corners where it would not.)"""
+    stops = mikron.with_axes(max_accel_ovl_factor=1.0)
+    sim = simulate("corner.mpf", stops, text="N10 G90 G642 CTOL=0.05 SOFT F600\nN20 G1 X50\n"
                    "N30 G1 Y50\nN40 G1 X0\nM30\n")
     path = sim.motion.path
     assert path.n > sim.interpreted.path.n                      # rounding blocks inserted
