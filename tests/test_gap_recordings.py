@@ -38,7 +38,11 @@ cli.add_command(gap)
 
 
 def run(*args):
-    return CliRunner().invoke(cli, ["gap", *map(str, args)], catch_exceptions=False)
+    """``ncsim gap ARGS`` on the MIKRON unless ARGS name a machine (gap requires --machine)."""
+    args = [*map(str, args)]
+    if "--machine" not in args:
+        args += ["--machine", "mikron"]
+    return CliRunner().invoke(cli, ["gap", *args], catch_exceptions=False)
 
 
 CIRCLE = """N10 G17 G90 G64 SOFT
