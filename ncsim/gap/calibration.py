@@ -16,8 +16,8 @@ What goes back into the machine file, and how:
   (no settle time, a 100 % rapid override, no feed forward, no recorder mean) are not flagged
   (``NATURAL_ENDS``);
 * **which of equally good hypotheses** (:func:`prefer_plausible`): where a machine-data change
-  and an operator setting explain the recording equally well (within ``TIE_SHARE`` of the gap,
-  the diagnosis's "indistinguishable"), the file gets the one a machine more plausibly has --
+  and an operator setting explain the recording equally well (:func:`equally_good`: within
+  ``TIE_SHARE`` of the gap, the diagnosis's "indistinguishable", or within the noise), the file gets the one a machine more plausibly has --
   a rapid or feed override the operator turned down before an axis velocity (MD32000) set to a
   tenth of the machine's rapid rate -- and the other is named as the alternative;
 * **the text** (:func:`edit_machine_text`): the source file edited in place with ``tomlkit``
@@ -40,9 +40,13 @@ from ncsim.path import COMPRESSOR_NAMES
 from ncsim.units import (mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min, s2_to_um_per_m_s2,
                          s_to_ms, share_to_percent)
 
-#: hypotheses that fit within this share of the best gap are equally good (as
-#: ``diagnose.TIE_SHARE``: the diagnosis calls such fits indistinguishable)
+#: hypotheses whose gaps are within this share of each other are equally good (as
+#: ``diagnose.TIE_SHARE``: the diagnosis calls such fits indistinguishable) ...
 TIE_SHARE = 0.01
+#: ... and so are those whose squared gaps differ by less than the noise's own: each of the
+#: gap's three groups of residuals (feed, time, contour) at the noise level adds about 1/4 to
+#: gap^2 (``diagnose`` module docstring, step 3)
+NOISE_GAP2 = 0.75
 #: a float parameter within this share of its search range (log range where the search is
 #: logarithmic) of a bound sits on it
 BOUND_SHARE = 1e-3
@@ -265,8 +269,8 @@ def bound_hits(fitted: Sequence[tuple[str, dict]]) -> list[BoundHit]:
 
 @dataclass(frozen=True)
 class Alternative:
-    """A hypothesis that explains the recording as well as the one written (within
-    ``TIE_SHARE``), and why the written one was preferred."""
+    """A hypothesis that explains the recording as well as the one written
+    (:func:`equally_good`), and why the written one was preferred."""
 
     effect: str           # the alternative, not written
     params: dict
@@ -286,59 +290,83 @@ class Alternative:
                 "reason": self.reason}
 
 
+def equally_good(gap: float, best_gap: float) -> bool:
+    """Whether a fit leaving ``gap`` explains the recording as well as one leaving
+    ``best_gap``: within ``TIE_SHARE`` of it, or ``gap^2`` within ``NOISE_GAP2`` of
+    ``best_gap^2`` (what residuals at the noise level add)."""
+    return gap <= best_gap * (1.0 + TIE_SHARE) or gap * gap - best_gap * best_gap <= NOISE_GAP2
+
+
+def plausibility(effect: str) -> int:
+    """0 for an operator setting (``PLAUSIBILITY``), 1 for a machine-data change or a model
+    constant: the lower, the more plausibly a machine has it."""
+    return 0 if effect in PLAUSIBILITY else 1
+
+
 def _reason(chosen: str, other: str) -> str:
-    kind = PLAUSIBILITY.get(chosen, "setting")
-    return (f"{chosen} written: an {kind} is more plausible than a machine-data change "
-            f"({other})")
+    if plausibility(chosen) < plausibility(other):
+        return (f"{chosen} written: an {PLAUSIBILITY[chosen]} is more plausible than a "
+                f"machine-data change ({other})")
+    return f"{chosen} written: the better fit of two equally plausible hypotheses"
+
+
+def _alternative(other, chosen) -> Alternative:
+    """``other`` (an ``EffectFit``) named as the alternative of ``chosen``."""
+    return Alternative(other.effect, dict(other.params), other.gap_after.gap, chosen.effect,
+                       chosen.gap_after.gap, _reason(chosen.effect, other.effect))
 
 
 def prefer_plausible(evaluator, d) -> tuple[object, list[Alternative]]:
     """The diagnosis ``d`` (``diagnose.Diagnosis``) with the more plausible of equally good
-    hypotheses as its corrected model (module docstring), and the alternatives. ``evaluator``
-    judges models exactly as the diagnosis did (``diagnose.Evaluator`` with the program
-    interpreted again where a model needs it)."""
+    hypotheses as its corrected model (module docstring), and the alternatives named.
+    ``evaluator`` judges models exactly as the diagnosis did (``diagnose.Evaluator`` with the
+    program interpreted again where a model needs it).
+
+    Single fits (no combined model): every fit :func:`equally_good` as the best is one; the most plausible of them goes first, the others are the alternatives. A combined
+    model: for each pair of :data:`PLAUSIBLE_SUBSTITUTES` of which the model holds one, the
+    other is fitted in its place (the first reset to the base's value); when it fits as well,
+    the more plausible of the two stays in the model and the other is the alternative."""
     from dataclasses import replace as dc_replace
     from ncsim.gap.fit import fit_effect
     final = d.combined if d.combined is not None else d.best
     if final.shrink_percent <= 0:
         return d, []
-    chosen = list(final.effects or (final.effect,))
-    alternatives: list[Alternative] = []
     if d.combined is None:
-        # single fits: the diagnosis already fitted every candidate on the base
         best = d.fits[0]
-        for other in PLAUSIBLE_SUBSTITUTES.get(best.effect, ()):
-            f = next((x for x in d.fits if x.effect == other), None)
-            if f is not None and f.gap_after.gap <= best.gap_after.gap * (1.0 + TIE_SHARE):
-                fits = [f] + [x for x in d.fits if x is not f]
-                alternatives.append(Alternative(best.effect, dict(best.params), best.gap_after.gap,
-                                                other, f.gap_after.gap, _reason(other, best.effect)))
-                return dc_replace(d, fits=fits), alternatives
+        pool = [best] + [f for f in d.fits[1:]
+                         if equally_good(f.gap_after.gap, best.gap_after.gap)]
+        chosen = min(pool, key=lambda f: (plausibility(f.effect), pool.index(f)))
+        alternatives = [_alternative(f, chosen) for f in pool if f is not chosen]
+        if chosen is not best:
+            d = dc_replace(d, fits=[chosen] + [f for f in d.fits if f is not chosen])
         return d, alternatives
-    model, params, gap_after = final.model, dict(final.params), final.gap_after
-    for name in list(chosen):
-        for other in PLAUSIBLE_SUBSTITUTES.get(name, ()):
-            if other in chosen:
-                continue
-            e = get_effect(name)
-            without = e.apply(model, e.check(e.current(d.base_model)))
-            trial = fit_effect(evaluator, without, other, gap_before=d.gap_before)
-            if trial.gap_after.gap <= gap_after.gap * (1.0 + TIE_SHARE):
-                alternatives.append(Alternative(name, {p.name: params[p.name] for p in e.params
-                                                       if p.name in params},
-                                                gap_after.gap, other, trial.gap_after.gap,
-                                                _reason(other, name)))
-                for p in e.params:
-                    params.pop(p.name, None)
-                params.update(trial.params)
-                chosen[chosen.index(name)] = other
-                model, gap_after = trial.model, trial.gap_after
-                break
-    if not alternatives:
-        return d, []
-    comb = dc_replace(final, effect="+".join(chosen), effects=tuple(chosen), params=params,
-                      model=model, gap_after=gap_after)
-    return dc_replace(d, combined=comb), alternatives
+    chosen = list(final.effects or (final.effect,))
+    current = final
+    alternatives: list[Alternative] = []
+    pairs = [(md, op) for md, ops in PLAUSIBLE_SUBSTITUTES.items() for op in ops]
+    for md, op in pairs:
+        if (md in chosen) == (op in chosen):
+            continue
+        inside, other = (md, op) if md in chosen else (op, md)
+        e = get_effect(inside)
+        without = e.apply(current.model, e.check(e.current(d.base_model)))
+        trial = fit_effect(evaluator, without, other, gap_before=d.gap_before)
+        if not equally_good(trial.gap_after.gap, current.gap_after.gap):
+            continue
+        params_in = {p.name: current.params[p.name] for p in e.params if p.name in current.params}
+        fit_in = dc_replace(current, effect=inside, params=params_in)
+        if plausibility(other) < plausibility(inside):
+            alternatives.append(_alternative(fit_in, trial))
+            params = {k: v for k, v in current.params.items() if k not in params_in}
+            params.update(trial.params)
+            chosen[chosen.index(inside)] = other
+            current = dc_replace(current, effect="+".join(chosen), effects=tuple(chosen),
+                                 params=params, model=trial.model, gap_after=trial.gap_after)
+        else:
+            alternatives.append(_alternative(trial, fit_in))
+    if current is not final:
+        d = dc_replace(d, combined=current)
+    return d, alternatives
 
 
 # ---------------------------------------------------------------------------------------------
@@ -418,6 +446,9 @@ class Calibration:
     alternatives: list[Alternative]
     notes: list[str]                      # what the file cannot hold
     fit_lines: list[str] = field(default_factory=list)   # gap and rms before and after
+    #: the program's cycle time under the base and the corrected model (None: no program)
+    base_cycle_time_s: float | None = None
+    cycle_time_s: float | None = None
 
     @property
     def refused(self) -> list[BoundHit]:
@@ -430,6 +461,10 @@ class Calibration:
         lines = [f"Calibrated by `ncsim gap` from {self.source} (its comments follow, a changed "
                  "line says what it was)", f"against the recording {rec}."]
         lines += self.fit_lines
+        if self.cycle_time_s is not None:
+            lines.append(f"Cycle time of the program: {self.base_cycle_time_s:.6f} s on the source "
+                         f"file, {self.cycle_time_s:.6f} s on this one (`ncsim run` on it gives "
+                         "the corrected model's).")
         lines.append("Fitted: " + ("; ".join(f"{n} " + ", ".join(f"{k}={_show(v)}"
                                                                  for k, v in p.items())
                                              for n, p in self.fitted) or "nothing"))
@@ -455,6 +490,9 @@ class Calibration:
                  + (f"{len(self.changes)} machine data changed against {self.source}"
                     if self.changes else f"no machine datum changed against {self.source}")]
         lines += [f"  {c.text()}" for c in self.changes]
+        if self.cycle_time_s is not None:
+            lines.append(f"  cycle time of the program {self.base_cycle_time_s:.4f} s -> "
+                         f"{self.cycle_time_s:.4f} s (corrected model)")
         for a in self.alternatives:
             lines.append(f"  alternative: {a.text()}")
         for b in self.bounds:
@@ -469,7 +507,8 @@ class Calibration:
                 "changes": [c.as_dict() for c in self.changes],
                 "on_bounds": [b.as_dict() for b in self.bounds],
                 "alternatives": [a.as_dict() for a in self.alternatives],
-                "notes": list(self.notes)}
+                "notes": list(self.notes), "base_cycle_time_s": self.base_cycle_time_s,
+                "cycle_time_s": self.cycle_time_s}
 
     def refusal(self, out: str) -> str:
         """The one line that refuses to write ``out`` (values on bounds, no --allow-bounds)."""

@@ -77,6 +77,7 @@ class GapResult:
     #: equally good hypotheses not in the corrected model (``calibration.prefer_plausible``)
     alternatives: list = field(default_factory=list)
     _evaluator: object = field(default=None, repr=False, compare=False)
+    _calibration: object = field(default=None, repr=False, compare=False)
 
     def as_dict(self) -> dict:
         """The ``ncsim gap --json`` document (README "Sim-to-real gap")."""
@@ -140,6 +141,7 @@ class GapResult:
             return
         from ncsim.gap.calibration import prefer_plausible
         self.planner, alternatives = prefer_plausible(self.evaluator(), self.planner)
+        self._calibration = None
         self.alternatives = list(alternatives)
         if alternatives:
             self.planner = replace(self.planner, notes=self.planner.notes + tuple(
@@ -168,7 +170,12 @@ class GapResult:
 
     def calibration(self):
         """What the corrected machine file changes, flags and leaves out
-        (``calibration.Calibration``)."""
+        (``calibration.Calibration``; computed once, after ``prefer_plausible``)."""
+        if self._calibration is None:
+            self._calibration = self._calibrate()
+        return self._calibration
+
+    def _calibrate(self):
         from ncsim.gap.calibration import (Calibration, bound_hits, complete_ovl_changes,
                                            machine_changes)
         _, fitted = self.corrected_model()
@@ -177,10 +184,21 @@ class GapResult:
         if self.machine_text is not None:
             changes = complete_ovl_changes(self.machine, new, changes, self.machine_text)
         notes = [note for name, params in fitted for note in _machine_file_notes(name, params)]
+        times = {}
+        if self.path is not None and self.planner is not None:
+            from ncsim.motion import FULL_MODEL
+            model = self.corrected_model()[0]
+            cache = self.evaluator().cache
+            times = {"base_cycle_time_s": cache.motion(Model(machine=self.machine)).total_time_s,
+                     "cycle_time_s": cache.motion(model).total_time_s}
+            if model.options != FULL_MODEL:
+                notes.append(f"the base model '{self.planner.base}' leaves planner effects out "
+                             "that a machine file cannot switch off: `ncsim run` on this file "
+                             "simulates them")
         return Calibration(source=self.machine_label or self.machine.source, fitted=fitted,
                            changes=changes, bounds=bound_hits(fitted),
                            alternatives=list(self.alternatives), notes=notes,
-                           fit_lines=self._fit_lines())
+                           fit_lines=self._fit_lines(), **times)
 
     def _fit_lines(self) -> list[str]:
         """The gap and rms before and after the correction, for the file's header."""
