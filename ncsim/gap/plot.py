@@ -109,8 +109,8 @@ def plot_trace(d, evaluator, prefix: str, fmt: str = "png") -> list[str]:
     ax[1].set_ylabel("contour deviation (um)")
     ax[1].legend(loc="upper right", fontsize=8)
     for s, label, color in ((base, "base", "tab:red"), (corr, "corrected", "tab:blue")):
-        v = s["valid"]
-        ax[2].plot(s["t_s"][v], s["time_error_ms"][v], lw=1, color=color,
+        c = s["compared"]      # the samples whose time error the rms counts (in motion)
+        ax[2].plot(s["t_s"][c], s["time_error_ms"][c], lw=1, color=color,
                    label=f"{label} ({s['time_rms_ms']:.3g} ms rms)")
         u = s["unmatched"]
         if np.any(u):
