@@ -477,10 +477,10 @@ class Calibration:
         if self.bounds:
             lines.append("Values on their search bounds (flagged; written only with "
                          "--allow-bounds):")
-            lines += [f"  {b.text()}" + ("" if b.written else " [not in this file]")
+            lines += [f"  {b.text()}" + ("" if b.written else " (not a machine-file value)")
                       for b in self.bounds]
         if self.notes:
-            lines.append("Not in this file:")
+            lines.append("Notes:")
             lines += [f"  {n}" for n in self.notes]
         return lines
 
@@ -496,9 +496,10 @@ class Calibration:
         for a in self.alternatives:
             lines.append(f"  alternative: {a.text()}")
         for b in self.bounds:
-            lines.append(f"  ON BOUND: {b.text()}" + ("" if b.written else " (not written)"))
+            lines.append(f"  ON BOUND: {b.text()}" + ("" if b.written else
+                                                     " (not a machine-file value)"))
         for n in self.notes:
-            lines.append(f"  not in the file: {n}")
+            lines.append(f"  note: {n}")
         return "\n".join(lines) + "\n"
 
     def as_dict(self) -> dict:

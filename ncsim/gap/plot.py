@@ -44,7 +44,7 @@ def trace_series(evaluator, model) -> dict:
 
     * ``t_model_s``, ``speed_model_mm_s``: the model's path feed on the measured clock (its
       grid shifted by the alignment's clock offset), through the measured speed's operator;
-    * ``t_s``: the measured samples' times; ``time_error_ms``: measured minus model time at
+    * ``t_s``: the measured samples' times (the recording's clock); ``time_error_ms``: measured minus model time at
       the same place, counted from its median over the compared samples (a constant is only a
       clock offset, ``metrics.gap_metrics``); ``contour_um``: distance to the model path;
       ``valid``: samples placed on the model path; ``compared``: samples in motion whose time
@@ -68,7 +68,7 @@ def trace_series(evaluator, model) -> dict:
     time_error_ms = s_to_ms(te - median)
     dist_um = mm_to_um(np.asarray(al.distance_mm, dtype=np.float64))
     return {"t_model_s": mt.t_s + al.time_shift_s, "speed_model_mm_s": model_speed,
-            "t_s": np.asarray(al.t_s), "time_error_ms": time_error_ms, "contour_um": dist_um,
+            "t_s": np.asarray(evaluator.measured.t_s), "time_error_ms": time_error_ms, "contour_um": dist_um,
             "valid": np.asarray(al.valid), "compared": compared, "unmatched": unmatched,
             "outside_ms": s_to_ms(outside),
             "time_rms_ms": rms(np.concatenate([time_error_ms[compared],
@@ -100,7 +100,8 @@ def plot_trace(d, evaluator, prefix: str, fmt: str = "png") -> list[str]:
                    label=f"{label}: time {s['time_rms_ms']:.3g} ms rms")
     ax[0].set_ylabel("path feed (mm/s)")
     ax[0].legend(loc="upper right", fontsize=8)
-    ax[0].set_title(f"gap diagnosis: {d.program or ''} against {d.source}", fontsize=9)
+    ax[0].set_title(f"gap diagnosis: {FsPath(d.program).name if d.program else ''} against "
+                    f"{FsPath(d.source).name}", fontsize=10)
     for s, label, color, size in ((corr, "measured to corrected path", "tab:blue", 2),
                                   (base, "measured to base path", "tab:red", 1.5)):
         v = s["valid"]
