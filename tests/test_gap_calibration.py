@@ -287,3 +287,32 @@ def test_a_change_reads_as_old_to_new():
     p = get_effect("axis_velocity").param("axis_velocity_m_min")
     assert on_bound(p, p.low) == "low" and on_bound(p, p.high) == "high"
     assert on_bound(p, math.sqrt(p.low * p.high)) is None
+
+
+@pytest.mark.slow
+def test_the_kit_plunge_writes_a_rapid_override_and_names_md32000(shared, repo_root, tmp_path):
+    """Real 840D data (KIT DMC 60H, the plunge and start window): SOURCE.md reads the G0 Z-6.0
+    at about 50 mm/s, 7.5 % of the 40 m/min rapid rate of machines/dmc60h.toml. The file gets
+    the override, names MD32000 at about 3 m/min as the alternative, keeps the source's
+    comments, loads without warnings and runs the program as the corrected model does."""
+    kit = shared / "data/real/kit-dmc60h-notch-sinumerik"
+    prog = kit / "AL_2007_T4_Notch_Normal.mpf"
+    source = repo_root / "machines/dmc60h.toml"
+    out = tmp_path / "dmc60h_calibrated.toml"
+    r = CliRunner().invoke(cli, ["gap", str(prog), "--machine", str(source), "--measured",
+                                 str(kit / "window_A_plunge_and_start.csv"),
+                                 "--effects", "rapid_override,axis_velocity", "--json",
+                                 "--write-machine", str(out)])
+    assert r.exit_code == 0, r.output
+    cal = json.loads(r.stdout)["calibration"]
+    spec = load_machine(out)
+    assert spec.warnings == ()
+    assert spec.ncu.rapid_override * 100 == pytest.approx(50.0 / (40e3 / 60) * 100, abs=0.5)
+    assert list(spec.max_velocity_mm_s) == list(load_machine(source).max_velocity_mm_s)
+    (alt,) = [a for a in cal["alternatives"] if a["effect"] == "axis_velocity"]
+    assert alt["params"]["axis_velocity_m_min"] == pytest.approx(3.0, abs=0.2)
+    written = out.read_text().splitlines()
+    assert all(line in written for line in source.read_text().splitlines()
+               if not line.startswith("rapid_override_percent"))
+    ran = CliRunner().invoke(ncsim_cli, ["run", str(prog), "--machine", str(out), "--json"])
+    assert json.loads(ran.stdout)["cycle_time_s"] == pytest.approx(cal["cycle_time_s"], rel=1e-6)
