@@ -21,10 +21,16 @@ decides:
   (``servo_part.diagnose_split``): the *planner part* (ncsim against the command, planner
   effects only) and the *servo part* (command against actual, trace effects only); with no
   program only the servo part is possible;
-* **what goes back into the machine file** (:meth:`GapResult.corrected_machine_toml`): the
-  planner diagnosis's corrected model (or the bare machine) plus the servo part's best effect,
-  with notes for what a machine file cannot hold (the acceleration mode, a feed-forward
-  weight, a delay).
+* **which of equally good hypotheses** (:meth:`GapResult.prefer_plausible`): an operator's
+  override before a machine-data change that fits as well, the other named
+  (``calibration.prefer_plausible``, judged by :meth:`GapResult.evaluator`, the diagnosis's
+  own evaluator with the program interpreted again where a model needs it);
+* **what goes back into the machine file** (:meth:`GapResult.corrected_machine_toml`,
+  :meth:`GapResult.calibration`): the planner diagnosis's corrected model (or the bare
+  machine) plus the servo part's best effect, written into the source file's text (comments
+  kept) with each changed machine datum, the values on search bounds and notes for what a
+  machine file cannot hold (the acceleration mode, a feed-forward weight, a delay);
+  ``ncsim.gap.calibration``.
 
 The :class:`GapResult` it returns is what the command prints: ``as_dict()`` (``--json``),
 ``text()``, ``plot(prefix)``.
