@@ -30,6 +30,7 @@ What goes back into the machine file, and how:
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
@@ -400,7 +401,8 @@ def edit_machine_text(text: str, changes: Sequence[Change], header: Sequence[str
             was = f"was {_show(ch.old)}, the default" if ch.old is not None else "new"
         table[ch.datum.key] = ch.new
         note = f"fitted by ncsim gap ({was}; see the header)"
-        if ch.datum.md.split()[0] not in old_comment:
+        md = re.search(r"MD\d+", ch.datum.md)
+        if (md.group(0) if md else ch.datum.md) not in old_comment:
             note += f"; {ch.datum.md}"
         if old_comment:
             note += f". Before: {old_comment}"
