@@ -35,8 +35,8 @@ from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 from ncsim.errors import UsageError
-from ncsim.gap.effects import EFFECTS, Model, get_effect
-from ncsim.machine import AXIS_NAMES, COMPRESSOR_CODES, MachineSpec, path_mode_name
+from ncsim.gap.effects import EFFECTS, get_effect
+from ncsim.machine import AXIS_NAMES, MachineSpec, path_mode_name
 from ncsim.path import COMPRESSOR_NAMES
 from ncsim.units import (mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min, s2_to_um_per_m_s2,
                          s_to_ms, share_to_percent)
