@@ -316,3 +316,48 @@ def test_the_kit_plunge_writes_a_rapid_override_and_names_md32000(shared, repo_r
                if not line.startswith("rapid_override_percent"))
     ran = CliRunner().invoke(ncsim_cli, ["run", str(prog), "--machine", str(out), "--json"])
     assert json.loads(ran.stdout)["cycle_time_s"] == pytest.approx(cal["cycle_time_s"], rel=1e-6)
+
+
+#: rapids, then a spiral of tangent arcs whose curvature jumps at each junction: the crossing
+#: feed sqrt(R1 R2 J dt / |R1 - R2|) (paper eq. 13) binds under F2400 at dt = 2 ms, not at the
+#: MIKRON's 12 ms
+SPIRAL_AND_RAPIDS = """N10 G17 G90 G64 SOFT
+N20 G0 X40 Y30 Z5
+N25 G0 X0 Y-10
+N28 G0 Z0
+N30 G3 X10 Y0 I0 J10 F2400
+N40 G3 X-2 Y12 I-12 J0
+N50 G3 X-16 Y-2 I0 J-14
+N60 G3 X0 Y-18 I16 J0
+N70 G3 X18 Y0 I0 J18
+N80 G0 Z5
+N90 G0 X40 Y30
+N100 M30
+"""
+
+
+def test_a_combined_model_keeps_the_override_and_names_the_axis_velocity(tmp_path):
+    """Recorded at a 10 % rapid override on a MIKRON crossing curvature jumps in 2 ms: the
+    combined model (two effects) holds the override, whichever of the two equally good rapid
+    hypotheses the selection started from, and names MD32000 as the alternative."""
+    from ncsim.units import ms_to_s
+    m = load_machine("mikron")
+    prog, csv = _record(tmp_path, "spiral", SPIRAL_AND_RAPIDS,
+                        m.with_ncu(transition_time_s=ms_to_s(2.0)),
+                        Case(index=0, effect="rapid_override",
+                             params={"rapid_override_percent": 10.0}, base="full",
+                             scope=SCOPE, lead_s=0.2, seed=3))
+    out = tmp_path / "calibrated.toml"
+    r = CliRunner().invoke(cli, ["gap", str(prog), "--machine", "mikron", "--measured", str(csv),
+                                 "--effects", "axis_velocity,rapid_override,transition",
+                                 "--json", "--write-machine", str(out)])
+    assert r.exit_code == 0, r.output
+    data = json.loads(r.stdout)
+    comb = data["diagnosis"]["combined"]
+    assert sorted(comb["effects"]) == ["rapid_override", "transition"]
+    assert [a["effect"] for a in data["calibration"]["alternatives"]] == ["axis_velocity"]
+    spec = load_machine(out)
+    assert spec.ncu.rapid_override * 100 == pytest.approx(10.0, rel=0.03)
+    assert spec.ncu.transition_time_s * 1e3 == pytest.approx(2.0, rel=0.25)
+    assert list(spec.max_velocity_mm_s) == list(m.max_velocity_mm_s)
+    assert spec.warnings == ()
