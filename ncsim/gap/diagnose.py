@@ -95,6 +95,7 @@ SETTLE_S = 0.5               # model held at rest after the end (lagging axes se
 WINDOW_MARGIN_S = 0.5        # model traces sampled this much beyond what a recording covers
 LEAD_S = 0.1                 # rest before the motion of a model trace through the recorder
 COMBINE_MIN_GAIN = 0.05      # combined model: an effect must shrink the gap by 5 % more
+MAX_REMEMBERED = 20000       # gaps of models an evaluator keeps (a few hundred bytes each)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -277,6 +278,8 @@ class Evaluator:
         self.measured_speed = (measured.speed_mm_s(self.scales.speed_window_s) if self.derived
                                else measured.speed_mm_s())
         self.n_evals = 0
+        self.n_computed = 0
+        self._gaps: dict = {}
 
     def model_trace(self, model: Model) -> ModelTrace:
         """The model trace, with its speed through the same operator as the measured speed."""
@@ -300,9 +303,17 @@ class Evaluator:
     def evaluate(self, model: Model, *, full: bool = False):
         """``GapMetrics`` of ``model`` (and, with ``full``, the alignment and model trace)."""
         self.n_evals += 1
+        if not full and model in self._gaps:
+            # the searches of a diagnosis meet the same model again (a grid point of one
+            # effect's fit on the same parent, the parent itself): its gap is known
+            return self._gaps[model]
+        self.n_computed += 1
         mt = self.model_trace(model)
         al = self.align(mt)
         m = gap_metrics(al, mt, self.scales)
+        if len(self._gaps) >= MAX_REMEMBERED:
+            self._gaps.pop(next(iter(self._gaps)))
+        self._gaps[model] = m
         return (m, al, mt) if full else m
 
 

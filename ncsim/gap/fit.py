@@ -178,17 +178,27 @@ def fit_values(objective, params: Sequence, start: Mapping[str, object], free: I
         vals = dict(start, **combo)
         f = None
         sweeps = 2 if len(numeric) > 1 and not coarse else 1
+        # a parameter whose every value left the same objective in a sweep changes nothing
+        # under this combination (a SOFT jerk under BRISK): not searched again nor polished
+        inert: set[str] = set()
         for _ in range(sweeps):
             for p in numeric:
-                def obj1(x, p=p, vals=vals):
-                    return objective(dict(vals, **{p.name: x}))
+                if p.name in inert:
+                    continue
+                seen: list[float] = []
+
+                def obj1(x, p=p, vals=vals, seen=seen):
+                    seen.append(objective(dict(vals, **{p.name: x})))
+                    return seen[-1]
                 if p.kind == "int":
                     x, f = _int_search(obj1, p, vals.get(p.name), coarse=coarse)
                 else:
                     x0 = vals.get(p.name)
                     x, f = _float_search(obj1, p, None if x0 is None else float(x0), coarse=coarse)
                 vals[p.name] = x
-        floats = [p for p in numeric if p.kind == "float"]
+                if len(seen) > 1 and max(seen) == min(seen):
+                    inert.add(p.name)
+        floats = [p for p in numeric if p.kind == "float" and p.name not in inert]
         if len(floats) >= 2 and not coarse and polish:
             vals, f = _polish(objective, floats, vals)
         if f is None:
