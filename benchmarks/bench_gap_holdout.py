@@ -8,12 +8,15 @@ circle, G1 Y10, a 90 deg corner, G1 X40, a 135 deg corner (45 deg of deflection)
 X-10 Y60. It is cut in time into a part the corner law is FITTED on and a part it must
 PREDICT:
 
-* **forward** (the acceptance case): fitted on the recording before ``--split-s`` (the
-  G0->G1 stop, the two tangent junctions and the 90 deg corner), the 135 deg corner predicted;
+* **forward** (the acceptance case): fitted on the G1 part of the recording before
+  ``--split-s`` (the two tangent junctions and the 90 deg corner), the 135 deg corner
+  predicted;
 * **reverse**: fitted on the recording after ``--reverse-split-s`` (the 135 deg corner and the
   last line), the 90 deg corner predicted.
 
-The fit is the planner part of ``ncsim gap`` on that part of the recorded command
+The G0->G1 change at the start is neither fitted on nor predicted (:func:`feed_rows`: the
+planner stops there by construction, the 840D blended it). The fit is the planner part of
+``ncsim gap`` on that part of the recorded command
 (``ncsim.gap.diagnose.diagnose`` with the recorder's known 20 ms mean), candidates
 ``rapid_override`` (the G0 ran at 3 m/min), ``reset_mode`` (the exact-stop settle at G0->G1)
 and ``corner_law`` (SOFT/BRISK, the G64 axis velocity jump of MD32310 and the ramp jerk of
@@ -121,7 +124,8 @@ class Notch:
         from ncsim.gap.diagnose import diagnose
         from ncsim.gap.pipeline import register_trace
         part = self.trace.select(rows)
-        reg = register_trace(part, self.path, self.machine, {})
+        # the work offset of SOURCE.md: a part without the plunge fits all three passes
+        reg = register_trace(part, self.path, self.machine, {"G54": tuple(ORIGIN_MM)})
         return diagnose(self.path, self.machine, part.command(), candidates=candidates,
                         localisation=False, registration=reg, reinterpret=self.reinterpret,
                         recorder_window_ms=RECORDER_WINDOW_MS, program=str(PROGRAM))
@@ -159,23 +163,38 @@ def holdout(notch: Notch, fit_rows, held: list[str]) -> dict:
     rows = [{"junction": name, "measured_ms": notch.measured_ms[name],
              "predicted_ms": predicted[name],
              "error_ms": predicted[name] - notch.measured_ms[name]} for name in held]
-    fitted_on = [n for n, _, _ in JUNCTIONS if n not in held]
+    t_fit = notch.t_s[fit_rows]
+    fitted_on = [n for n, _, _ in JUNCTIONS
+                 if n not in held and t_fit[0] < notch.at_s[n] < t_fit[-1]]
     return {"rows": rows, "law": corner_law_of(d), "seconds": seconds,
             "fit_rows": int(np.count_nonzero(fit_rows)),
             "fitted_on": [{"junction": n, "measured_ms": notch.measured_ms[n],
                            "model_ms": predicted[n]} for n in fitted_on]}
 
 
+#: the G1 part of the recording starts this long after the G0->G1 junction (the end of its
+#: line-fit window): the G0->G1 change is no G64 corner (below)
+G1_START_AFTER_S = 0.6
+
+
+def feed_rows(notch: Notch) -> np.ndarray:
+    """The recording from the end of the G0->G1 change on. That change is left out of the
+    corner law's fit and prediction: ncsim's planner stops there by construction (a G0<->G1
+    change is an auxiliary stop, MD20552), while the recording shows the 840D blending it (X
+    starts while Z still brakes, SOURCE.md), and its loss is shaped by the rapid's ramps (Z),
+    not by the corner law of the plane's axes."""
+    return notch.t_s > notch.at_s["G0->G1 stop"] + G1_START_AFTER_S
+
+
 def forward_split(notch: Notch, split_s: float):
-    """Fit before ``split_s``, predict the corners after it."""
-    rows = notch.t_s < split_s
+    """Fit on the G1 part before ``split_s``, predict the corners after it."""
+    rows = feed_rows(notch) & (notch.t_s < split_s)
     held = [n for n, deg, _ in JUNCTIONS if notch.at_s[n] > split_s and deg > 0]
     return rows, held
 
 
 def reverse_split(notch: Notch, split_s: float):
-    """Fit after ``split_s``, predict the CORNERS of G1 blocks before it (the G0->G1 stop
-    depends on the rapid rate, which the part after it does not show)."""
+    """Fit on the recording after ``split_s``, predict the G1 corners before it."""
     rows = notch.t_s > split_s
     held = [n for n, deg, _ in JUNCTIONS if notch.at_s[n] < split_s and deg > 0
             and not n.startswith("G0")]

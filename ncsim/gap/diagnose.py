@@ -562,7 +562,7 @@ def _combined(chosen, params, fit: EffectFit, gap_before, n_evals: int,
 
 def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, base: Model, *,
                    max_effects: int = 4, n_full: int = 2, width: int = 1,
-                   n_partners: int = 1) -> EffectFit | None:
+                   n_partners: int = 1, max_structures: int = 2) -> EffectFit | None:
     """Combined model by forward selection with a small beam: start from the best single fit;
     at each step, for each model kept so far, screen every candidate it lacks on top of it
     with a coarse fit (grids only, :func:`~ncsim.gap.fit.fit_values`), fit the ``n_full`` best
@@ -571,18 +571,18 @@ def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, base: Model
     ``COMBINE_MIN_GAIN``. A discrete choice that does not pay off alone is tried once more
     together with the ``n_partners`` best other candidates: continuous path against exact
     stop only shows once the ramps that shape the corners are fitted too. The ``width`` best
-    children go on, and with them the best child of every structural hypothesis (the discrete
-    choices it makes, e.g. G60 or G64), so that a first choice that fits a little better does
-    not lock the others out. Candidates whose parameters changed nothing at all in their
-    single fit are left out (they do not act on this trace), unless they make a discrete choice.
+    children go on, and with them the best child of each of the ``max_structures`` best other
+    structural hypotheses (the discrete choices it makes, e.g. G60 or G64), so that a first
+    choice that fits a little better does not lock the others out. Candidates whose
+    parameters changed nothing at all in their single fit are left out (they do not act on
+    this trace: a compressor on a program without short blocks, every choice the same).
     The best model seen is returned, without effects that no longer matter in it
     (:func:`_prune`, against the ``base`` model)."""
     if not fits or fits[0].shrink_percent <= 0:
         return None
     t0 = time.perf_counter()
     n0 = evaluator.n_evals
-    names = [f.effect for f in fits
-             if f.sensitive or any(p.kind == "choice" for p in get_effect(f.effect).params)]
+    names = [f.effect for f in fits if f.sensitive]
     # a node: (fit of its model, the effects in it, their parameters)
     beam = [(fits[0], (fits[0].effect,), {fits[0].effect: fits[0].params})]
     best = beam[0]
@@ -621,7 +621,7 @@ def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, base: Model
         seen = {_structure(n[1], n[2]) for n in beam}
         for n in ranked[width:]:
             sig = _structure(n[1], n[2])
-            if sig not in seen:
+            if sig not in seen and len(beam) < width + max_structures:
                 seen.add(sig)
                 beam.append(n)
         # only the children that go on are re-fitted as a whole (the costly part)

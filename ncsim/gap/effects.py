@@ -555,6 +555,16 @@ def continuous_path(machine: MachineSpec) -> MachineSpec:
     return machine.with_ncu(reset_path_mode=64, exact_pos_mode_g0_to_g1=1)
 
 
+def path_jerk_at_least(machine: MachineSpec, jerk_mm_s3: float) -> MachineSpec:
+    """The machine whose NCU path jerk (J_tcurv = J_curv r_jct, paper eq. 10; cf. MD20600
+    $MC_MAX_PATH_JERK) is at least ``jerk_mm_s3``: a ramp jerk fitted on the lines of a
+    recording is the path jerk there, so the NCU's limit cannot be below it."""
+    ncu = machine.ncu
+    if ncu.tangential_jerk_mm_s3 >= jerk_mm_s3:
+        return machine
+    return machine.with_ncu(curvilinear_jerk_mm_s3=jerk_mm_s3 / ncu.tangential_jerk_share)
+
+
 @dataclass(frozen=True)
 class CornerLaw(Effect):
     """The G64 corner law of a machine: acceleration mode, axis velocity jump and ramp jerk
@@ -573,7 +583,12 @@ class CornerLaw(Effect):
         return replace(model, options=replace(model.options, accel_mode=None))
 
     def apply_planner(self, machine, options, v):
-        m = X_AXIS_JERK.set(continuous_path(machine), v["ramp_jerk_m_s3"])
+        m = continuous_path(machine)
+        old = np.array(m.max_jerk_mm_s3, dtype=np.float64)
+        x = m_s3_to_mm_s3(v["ramp_jerk_m_s3"])
+        # the plane's axes make the corners: X at the value, Y at its ratio to X, Z held
+        m = m.with_axes(max_jerk_mm_s3=np.array([x, x * old[1] / old[0], old[2]]))
+        m = path_jerk_at_least(m, float(np.max(m.max_jerk_mm_s3)))
         m, options = EFFECTS["corner_jump"].apply_planner(m, options, v)
         return m, replace(options, accel_mode=ACCEL_MODE_CHOICES[v["mode"]],
                           jerk_limited_ramps=True)
@@ -740,9 +755,9 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
         "(840D B1 \"continuous-path mode\", MD32310 $MA_MAX_ACCEL_OVL_FACTOR: the axis velocity "
         "jump A_i (f_i - 1) t_IPO) on a ramp shaped by the acceleration mode (MD20150 "
         "$MC_GCODE_RESET_VALUES group 21, SOFT or BRISK; B2 \"acceleration\"): SOFT at the path "
-        "jerk of the axes (MD32431 $MA_MAX_AX_JERK along the block, at most the NCU's tangential "
-        "jerk), BRISK at the full acceleration (the jerk A / t_IPO). A corner of deflection "
-        "theta costs about 2 (v - V)^1.5 / (v sqrt(J)) under SOFT and (v - V)^2 / (A v) under "
+        "jerk of the plane's axes (MD32431 $MA_MAX_AX_JERK of X and Y along the block; the NCU's "
+        "path jerk is raised to it where lower), BRISK at the full acceleration (the jerk A / t_IPO). A "
+        "corner of deflection theta costs about 2 (v - V)^1.5 / (v sqrt(J)) under SOFT and (v - V)^2 / (A v) under "
         "BRISK, so the losses of corners of two angles tell the jump from the jerk. The three "
         "are fitted together because each alone is degenerate with the others (a slower ramp "
         "and a lower corner velocity lose the same time at one corner). Premise: continuous "
@@ -754,8 +769,9 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
          Param("corner_jump_mm_s", "mm/s", 0.1, 200.0, "velocity jump the X axis may make at a "
                "G64 corner (MD32310 = 1 + jump / (A t_IPO); Y and Z keep their ratio to X)"),
          Param("ramp_jerk_m_s3", "m/s^3", 0.3, 200.0, "maximum X-axis jerk J_mx of SOFT ramps "
-               "(MD32431 $MA_MAX_AX_JERK; Y and Z keep their ratio to X; no effect under "
-               "BRISK)")),
+               "(MD32431 $MA_MAX_AX_JERK; Y keeps its ratio to X, Z is held, and the NCU path "
+               "jerk J_curv r_jct, cf. MD20600, is raised to the largest axis jerk where lower; "
+               "no effect under BRISK)")),
         option="accel_mode"),
     ServoLag(
         "servo_lag", "servo lag: position loop Kv with or without feed forward",
