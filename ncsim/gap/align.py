@@ -488,7 +488,11 @@ def align(measured: MeasuredTrace, sim_pos_mm, sim_t_s, sim_s_mm, *, sim_block=N
     restart[0] = True
     if measured.segment is not None:
         restart[1:] |= np.diff(measured.segment) != 0
-    v_max = 1.5 * max(v_max_sim, float(np.max(v_meas)) if m else 0.0) + 1e-9
+    # the measured samples advance along the path at the measured speed: a model much faster
+    # (a rapid not yet fitted) widens the search window by no more than twice that
+    v_meas_max = float(np.max(v_meas)) if m else 0.0
+    v_max = 1.5 * max(min(v_max_sim, 2.0 * v_meas_max) if v_meas_max > 0 else v_max_sim,
+                      v_meas_max) + 1e-9
     noise = estimate_noise_mm(q, v_meas, threshold) if noise_mm is None else float(noise_mm)
     slack = 5.0 * noise + 0.01 + v_max * 0.5 * period
     init_window = max(1.0, v_max * max(1.0, 10 * period)) + slack

@@ -660,15 +660,18 @@ def _extend(evaluator, node, effect: str, fixed: Mapping):
     """The node with ``effect`` added (its discrete choices ``fixed``), fitted, and the
     effects already in re-fitted."""
     current, chosen, params = node
+    # one coordinate sweep: the children that go on are back-fitted (_backfit_node)
     trial = fit_effect(evaluator, current.model, effect, gap_before=current.gap_after, fixed=fixed,
-                       polish=False)
+                       polish=False, sweeps=1)
     return trial, chosen + (effect,), {**params, effect: trial.params}
 
 
 def _backfit_node(evaluator, node):
-    """A node with all but its last effect re-fitted on top of the others (:func:`_backfit`)."""
+    """A node with its effects re-fitted one at a time on top of the others
+    (:func:`_backfit`): first those already in, then the last one added, whose fit in
+    :func:`_extend` was a single coordinate sweep."""
     fit, chosen, params = node
-    fit, params = _backfit(evaluator, fit, chosen[:-1], params, fit.gap_before)
+    fit, params = _backfit(evaluator, fit, chosen, params, fit.gap_before)
     return fit, chosen, params
 
 

@@ -161,12 +161,14 @@ def _int_search(objective, p, x0: int | None, coarse: bool = False):
 
 
 def fit_values(objective, params: Sequence, start: Mapping[str, object], free: Iterable[str],
-               coarse: bool = False, polish: bool = True):
+               coarse: bool = False, polish: bool = True, sweeps: int | None = None):
     """Minimise ``objective(values)`` over the ``free`` parameters (others held at
     ``start``). Choices are enumerated; for each, integers are scanned and floats searched one
     at a time (coordinate search, two sweeps when more than one is free). ``coarse``: one sweep
     of the grids alone, no refinement (a cheap screen of many candidates). ``polish``: the
-    Nelder-Mead polish of two or more floats (off: the coordinate search alone)."""
+    Nelder-Mead polish of two or more floats (off: the coordinate search alone). ``sweeps``:
+    the coordinate sweeps when several parameters are free (default two; one where a later
+    re-fit refines, as the forward selection's back-fit does)."""
     free = [p for p in params if p.name in set(free)]
     choices = [p for p in free if p.kind == "choice"]
     numeric = [p for p in free if p.kind != "choice"]
@@ -177,11 +179,11 @@ def fit_values(objective, params: Sequence, start: Mapping[str, object], free: I
     for combo in combos:
         vals = dict(start, **combo)
         f = None
-        sweeps = 2 if len(numeric) > 1 and not coarse else 1
+        n_sweeps = (2 if sweeps is None else sweeps) if len(numeric) > 1 and not coarse else 1
         # a parameter whose every value left the same objective in a sweep changes nothing
         # under this combination (a SOFT jerk under BRISK): not searched again nor polished
         inert: set[str] = set()
-        for _ in range(sweeps):
+        for _ in range(n_sweeps):
             for p in numeric:
                 if p.name in inert:
                     continue
@@ -252,7 +254,8 @@ def free_params(effect, command: bool) -> list[str]:
 
 def fit_effect(evaluator, base: Model, effect_name: str, *,
                gap_before=None, command: bool = False, coarse: bool = False,
-               fixed: Mapping[str, object] | None = None, polish: bool = True) -> EffectFit:
+               fixed: Mapping[str, object] | None = None, polish: bool = True,
+               sweeps: int | None = None) -> EffectFit:
     """Add (or re-fit) one effect on ``base`` and fit its parameters to minimise the gap.
 
     ``evaluator`` is anything with ``evaluate(model)`` returning an object with a ``gap``
@@ -275,7 +278,8 @@ def fit_effect(evaluator, base: Model, effect_name: str, *,
         return cache[key]
 
     free = [n for n in free_params(effect, command) if n not in (fixed or {})]
-    values, _ = fit_values(objective, effect.params, start, free, coarse=coarse, polish=polish)
+    values, _ = fit_values(objective, effect.params, start, free, coarse=coarse, polish=polish,
+                           sweeps=sweeps)
     model = effect.apply(base, values)
     after = evaluator.evaluate(model)
     seen = np.array(list(cache.values()))
