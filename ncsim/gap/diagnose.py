@@ -607,8 +607,13 @@ def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, base: Model
                             key=lambda fv: fv[0].gap_after.gap)
             plain = [f.effect for f, v in screen if not v][:n_partners]
             for f, v in screen[:n_full] + [fv for fv in screen[n_full:] if fv[1]]:
-                child = _extend(evaluator, node, f.effect, v)
-                keep(child, current.gap_after.gap)
+                if v and (f, v) not in screen[:n_full] and f.gap_after.gap >= current.gap_after.gap:
+                    # a choice whose screen does not shrink the gap at all: its fit alone
+                    # would not pay either; it goes on to its partners as screened
+                    child = (f, chosen + (f.effect,), {**params, f.effect: f.params})
+                else:
+                    child = _extend(evaluator, node, f.effect, v)
+                    keep(child, current.gap_after.gap)
                 if v and child[0].gap_after.gap >= current.gap_after.gap * (1.0 - COMBINE_MIN_GAIN) \
                         and len(chosen) + 2 <= max_effects:
                     for partner in plain:
@@ -687,7 +692,7 @@ def _backfit(evaluator, trial: EffectFit, chosen, params, gap_before):
     for name in chosen:
         fixed = {p.name: params[name][p.name] for p in get_effect(name).params if p.kind == "choice"}
         refit = fit_effect(evaluator, current.model, name, gap_before=gap_before, fixed=fixed,
-                           polish=False)
+                           polish=False, sweeps=1)
         if refit.gap_after.gap < current.gap_after.gap:
             current = refit
             params[name] = refit.params
