@@ -227,14 +227,16 @@ def _polish(objective, floats, vals):
         return out
 
     x0 = to_x(vals)
+    f0 = objective(vals)
     span = np.array([0.1 if p.log else 0.1 * (p.high - p.low) for p in floats])
     simplex = np.vstack([x0] + [x0 + np.eye(len(floats))[i] * span[i] for i in range(len(floats))])
+    # converged when the simplex spans 0.1 % of a log-scaled value (a quarter of the 1-D
+    # search's tolerance) and its objectives agree to 1e-6 of the objective
     res = minimize(lambda x: objective(to_vals(x)), x0, method="Nelder-Mead",
-                   options={"initial_simplex": simplex, "xatol": 1e-4, "fatol": 1e-10,
-                            "maxfev": 300})
+                   options={"initial_simplex": simplex, "xatol": 1e-3,
+                            "fatol": 1e-6 * max(abs(f0), 1e-300), "maxfev": 300})
     best = to_vals(res.x)
     f = objective(best)
-    f0 = objective(vals)
     return (best, f) if f <= f0 else (vals, f0)
 
 
