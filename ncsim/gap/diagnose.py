@@ -222,7 +222,9 @@ class ModelCache:
         pos = tr.pos_mm
         if model.post:
             pos = apply_trace_effects(model, tr, t, pos)
-            feed = np.linalg.norm(np.gradient(pos, t, axis=0), axis=1)
+            # the grid is uniform (np.arange steps): the scalar spacing is np.gradient's
+            # fast form, the same central differences
+            feed = np.linalg.norm(np.gradient(pos, self.dt_s, axis=0), axis=1)
         else:
             feed = tr.feed_mm_s
         # s(t) from the constant-jerk pieces can step back by rounding (1e-14 mm) where a

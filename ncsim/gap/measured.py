@@ -310,13 +310,18 @@ def derived_speed_mm_s(t_s: np.ndarray, pos_mm: np.ndarray, smooth_s: float = 0.
 def _central_speed_mm_s(t: np.ndarray, p: np.ndarray, k: int) -> np.ndarray:
     """:func:`derived_speed_mm_s` of one piece without breaks (every step positive and at
     most 3 nominal periods): ``|p[i+k] - p[i-k]| / (t[i+k] - t[i-k])``, the indexes clipped to
-    the ends, by slices (the model traces of a fit, thousands of calls)."""
+    the ends; the interior by slices (the model traces of a fit, thousands of calls)."""
     m = len(t)
-    lo = np.maximum(np.arange(m) - k, 0)
-    hi = np.minimum(np.arange(m) + k, m - 1)
-    d = p[hi] - p[lo]
-    dist = np.sqrt(np.einsum("ij,ij->i", d, d))
-    return dist / (t[hi] - t[lo])
+    edge = np.r_[np.arange(min(k, m)), np.arange(max(m - k, k), m)]   # clipped samples
+    d = np.empty_like(p)
+    span = np.empty(m)
+    if m > 2 * k:
+        d[k:m - k] = p[2 * k:] - p[:m - 2 * k]
+        span[k:m - k] = t[2 * k:] - t[:m - 2 * k]
+    lo, hi = np.maximum(edge - k, 0), np.minimum(edge + k, m - 1)
+    d[edge] = p[hi] - p[lo]
+    span[edge] = t[hi] - t[lo]
+    return np.sqrt(np.einsum("ij,ij->i", d, d)) / span
 
 
 # ---------------------------------------------------------------------------------------------
