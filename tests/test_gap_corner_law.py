@@ -112,6 +112,10 @@ def test_corner_law_sets_the_g64_law(notch):
     assert spec.ncu.tangential_jerk_mm_s3 >= 50000.0
     assert m.options.accel_mode == SOFT and e.is_active(m) and not e.is_active(e.remove(m))
     assert e.current(m)["ramp_jerk_m_s3"] == pytest.approx(20.0)
+    # pruned from a combined model, every value it set goes back to the base's
+    base = make_base(machine)
+    back = e.without(m, base)
+    assert back.options == base.options and back.machine == base.machine
 
     # a 90 deg corner of two lines at F600 (10 mm/s): SOFT slows down under a lower jerk,
     # BRISK does not depend on it

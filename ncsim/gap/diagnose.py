@@ -648,13 +648,7 @@ def _prune(evaluator, node, base: Model):
     for name in list(chosen):
         if len(chosen) == 1:
             break
-        e = get_effect(name)
-        if e.kind == "trace" and not e.is_active(base):
-            without = e.remove(fit.model)
-        elif e.kind == "planner" and not e.is_active(base) and e.option is not None:
-            without = e.remove(fit.model)
-        else:
-            without = e.apply(fit.model, e.check(e.current(base)))
+        without = get_effect(name).without(fit.model, base)
         g = evaluator.evaluate(without)
         if g.gap <= fit.gap_after.gap * (1.0 + COMBINE_MIN_GAIN):
             fit = replace(fit, model=without, gap_after=g)

@@ -382,6 +382,13 @@ class Effect:
     def apply_planner(self, machine: MachineSpec, options: ModelOptions, values):
         return self.setting.set(machine, values[self.params[0].name]), self.switched_on(options)
 
+    def without(self, model: Model, base: Model) -> Model:
+        """``model`` with this effect as in ``base`` (a combined model pruned): switched off
+        or removed when ``base`` lacks it, else at ``base``'s values."""
+        if not self.is_active(base) and (self.kind == "trace" or self.option is not None):
+            return self.remove(model)
+        return self.apply(model, self.check(self.current(base)))
+
     def switched_on(self, options: ModelOptions) -> ModelOptions:
         """The planner options with this effect's switch on (a setting without one: as they are)."""
         return options if self.option is None else replace(options, **{self.option: True})
@@ -581,6 +588,18 @@ class CornerLaw(Effect):
 
     def remove(self, model):
         return replace(model, options=replace(model.options, accel_mode=None))
+
+    def without(self, model, base):
+        """Every value it sets back at ``base``'s: the mode, the reset path mode and its
+        G0<->G1 window, the axis jerks and jumps, the NCU path jerk."""
+        b, m = base.machine, model.machine
+        m = m.with_ncu(reset_path_mode=b.ncu.reset_path_mode,
+                       exact_pos_mode_g0_to_g1=b.ncu.exact_pos_mode_g0_to_g1,
+                       curvilinear_jerk_mm_s3=b.ncu.curvilinear_jerk_mm_s3)
+        m = m.with_axes(max_jerk_mm_s3=np.array(b.max_jerk_mm_s3),
+                        max_accel_ovl_factor=np.array(b.max_accel_ovl_factor))
+        return replace(model, machine=m,
+                       options=replace(model.options, accel_mode=base.options.accel_mode))
 
     def apply_planner(self, machine, options, v):
         m = continuous_path(machine)
