@@ -8,7 +8,8 @@ with no negative duration, no NaN or infinity anywhere in the summary and no num
 (pytest turns RuntimeWarnings into errors). Machine files are drawn across the whole range of
 every key as the validator states it (``machine._AXIS_KEYS``, ``machine._NCU_KEYS``: the ends
 of each :class:`~ncsim.config.Range` included), on a few programs: plain lines, arcs and a
-helix, G60/G9/G64 with a dwell and acceleration-mode changes, and G0/G1 changes under every
+helix, G60/G9/G64 with a dwell and acceleration-mode changes, corner rounding (G641, G642,
+G645) and the compressors (COMPCAD, COMPCURV), and G0/G1 changes under every
 ``exact_pos_mode_g0_to_g1`` (MD20552). A file the validator rejects must be one
 :class:`~ncsim.errors.MachineSpecError` naming a key. The identities are the README's
 definitions, not ncsim output; the truth is consistency of the accounting, not the times.
@@ -38,6 +39,14 @@ PROGRAMS = {
     "g0_g1": ("G17 G90 G64 SOFT FFWON\nG0 X0 Y0 Z5\nG0 Z-9\nG1 X-1.5 Y-1 F5984\n"
               "G3 X0 Y-2.5 I1.5 J0\nG3 X0 Y-2.5 I0 J2.5\nG3 X1.5 Y-1 I0 J1.5\nG1 X0 Y0\n"
               "G0 Z5\nG1 X2 F1000\nG0 X0\nM30\n"),
+    # the HSM modes (issue 16, item 5): corner rounding G641/G642/G645 with and without a
+    # programmed tolerance, and the compressors on a raster of short lines at two feeds
+    "hsm": ("G17 G90 G64 SOFT\nG642 CTOL=0.05\nG1 X10 F6000\nY5\nX0 Y10\nG645\nX10 Y12\n"
+            "X0 Y15 F2000\nG641 ADIS=0.5\nX5 Y0\nG642\nX0 Y0 Z-1\nCOMPCAD\n"
+            + "".join(f"X{0.5 * i:g} Y{0.02 * (i % 3):g}\n" for i in range(1, 13))
+            + "COMPCURV\n" + "".join(f"X{6 - 0.5 * i:g} Y{0.4 + 0.03 * (i % 2):g} F{3000 + 500 * (i % 2)}\n"
+                                       for i in range(1, 13))
+            + "COMPOF\nG64\nX0 Y0\nM30\n"),
 }
 
 
@@ -102,7 +111,10 @@ DRAWN = st.fixed_dictionaries({
 MACHINES = st.one_of(DRAWN, *[DRAWN.map(within_derived_limits)] * 3)
 
 
-def check_identities(s: dict) -> None:
+def check_identities(s: dict, feed_override: float = 1.0) -> None:
+    """The README's identities; with ``feed_override`` (a share), also that no feed block runs
+    above its F times the override (840D V1 "feed override": rounding and compressed blocks
+    included, issue 16)."""
     json.dumps(s, allow_nan=False)                      # no NaN or infinity anywhere
     cycle = s["cycle_time_s"]
     tol = 1e-9 * max(cycle, 1e-3)
@@ -119,6 +131,8 @@ def check_identities(s: dict) -> None:
         assert b["t_start_s"] >= end - tol, b                  # blocks follow each other
         end = b["t_start_s"] + b["duration_s"]
         assert b["feed_setpoint_mm_min"] >= 0.0 and b["feed_max_mm_min"] >= 0.0, b
+        if b["feed_programmed_mm_min"] is not None:                   # a feed block
+            assert b["feed_max_mm_min"] <= b["feed_programmed_mm_min"] * feed_override * (1 + 1e-9), b
     assert end <= cycle + tol
 
 
@@ -132,7 +146,7 @@ def test_every_accepted_machine_file_keeps_the_accounting(data):
         assert exc.key and "\n" not in exc.render()
         return
     for name, text in PROGRAMS.items():
-        check_identities(summary(simulate(f"{name}.mpf", spec, text=text)))
+        check_identities(summary(simulate(f"{name}.mpf", spec, text=text)), spec.ncu.feed_override)
 
 
 @pytest.mark.parametrize("mode, settle_key", [(1, "exact_stop_fine_settle_s"),

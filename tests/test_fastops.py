@@ -145,6 +145,7 @@ LOOP = "R1=0\nG1 F100\nTOP: R1=R1+1\n{body}\nIF R1<6 GOTOB TOP\nM30\n"
     ("R2=SQRT(3-R1)", "SQRT of a negative number"),
     ("X=R1*1000000000", "out of range"),
     ("G1 X=R1 F=4-R1", "feed F must be positive"),
+    ("G1 X=R1 F=(4-R1)*0.0004", "below the smallest the 840D accepts"),  # 0.0008 at the 2nd pass
     ("DEF REAL _Q\n_Q=R1", "undefined variable"),                         # DEF reached later
     ("R2=ACOS(R1/4)", "ACOS argument outside [-1, 1]"),
     ("R2=R1 DIV (R1-3)", "division by zero (DIV)"),

@@ -49,7 +49,7 @@ def test_run_and_explain_print_mm_min_only(repo_root):
 
 def test_gap_trace_text_is_in_mm_min_and_scales_with_feed_unit(scope_csv):
     prog, csv = scope_csv
-    args = ("gap", prog, "--measured", csv, "--effects", "transition", "--no-combine")
+    args = ("gap", prog, "--machine", "mikron", "--measured", csv, "--effects", "transition", "--no-combine")
     default = invoke(*args)
     per_s = invoke(*args, "--feed-unit", "mm/s")
     assert units_named(default) == {"mm/min"}
@@ -60,7 +60,7 @@ def test_gap_trace_text_is_in_mm_min_and_scales_with_feed_unit(scope_csv):
 
 
 def test_gap_published_values_in_the_asked_unit(repo_root):
-    args = ("gap", repo_root / "programs" / "circle_r2p5_f6000.mpf", "--measured",
+    args = ("gap", repo_root / "programs" / "circle_r2p5_f6000.mpf", "--machine", "mikron", "--measured",
             repo_root / "measured" / "paper_table3.toml", "--effects", "ncu_path_jerk", "--no-combine")
     default = invoke(*args)
     m_min = invoke(*args, "--feed-unit", "m/min")

@@ -110,14 +110,14 @@ def test_t3_toml_nested_5000_deep(repro, command):
                                        "apart (the median time step), under 1 us"),
 ])
 def test_t4_gap_on_values_no_recording_has(repro, trace, expected):
-    assert one_line(invoke("gap", "bore.mpf", "--measured", trace)).startswith(expected)
+    assert one_line(invoke("gap", "bore.mpf", "--machine", "mikron", "--measured", trace)).startswith(expected)
 
 
 def test_t4_gap_with_a_sample_period_of_1e_300_ms(repro, tmp_path):
     untimed = tmp_path / "untimed.csv"
     rows = (repro / "T4_trace_x_1e300.csv").read_text().splitlines()[:11]   # before the 1e300
     untimed.write_text("\n".join(r.split(",", 1)[1] for r in rows) + "\n")
-    line = one_line(invoke("gap", "bore.mpf", "--measured", untimed, "--sample-period-ms", "1e-300"))
+    line = one_line(invoke("gap", "bore.mpf", "--machine", "mikron", "--measured", untimed, "--sample-period-ms", "1e-300"))
     assert line.startswith("ncsim gap: error: the sample period must be at least 1 us")
 
 
@@ -126,7 +126,7 @@ def test_t4_gap_with_a_sample_period_of_1e_300_ms(repro, tmp_path):
     (("run", "/dev/zero", "--machine", "mikron"), "program"),
     (("run", "bore.mpf", "--machine", "/dev/zero"), "machine file"),
     (("run", "bore.mpf", "--machine", "mikron", "--setup", "/dev/zero"), "setup file"),
-    (("gap", "bore.mpf", "--measured", "/dev/zero"), "file"),
+    (("gap", "bore.mpf", "--machine", "mikron", "--measured", "/dev/zero"), "file"),
 ])
 def test_t5_a_device_is_refused_before_reading(repro, args, what):
     assert one_line(invoke(*args, seconds=20)) == \
@@ -182,7 +182,7 @@ def fifo(tmp_path):
     (("run", "{bore}", "--machine", "{fifo}"), "machine file"),
     (("run", "{bore}", "--machine", "mikron", "--setup", "{fifo}"), "setup file"),
     (("run", "{bore}", "--machine", "mikron", "--definitions", "{fifo}"), "definitions file"),
-    (("gap", "{bore}", "--measured", "{fifo}"), "file"),
+    (("gap", "{bore}", "--machine", "mikron", "--measured", "{fifo}"), "file"),
     (("plot", "--trace", "{fifo}", "-o", "{tmp}/never.png"), "trace file"),
 ])
 def test_h1_a_named_pipe_is_refused_before_reading(repro, fifo, tmp_path, args, what):

@@ -63,6 +63,10 @@ CASES = [
     ("sqrt negative", "R1=SQRT(-4)\n", NcSemanticError, 1, 4, "SQRT of a negative number"),
     ("no subprogram", "G1 F100\nPOCKETX(1)\n", NcSemanticError, 2, 1, "subprogram POCKETX not found"),
     ("negative feed", "G1 X1 F=-5\n", NcSemanticError, 1, 7, "feed F must be positive"),
+    # 0.001 <= F (Fundamentals, list of addresses): a plain CAM line, so the columnar fast path
+    # must hand it to the checking path rather than time 10 mm at 1e-22 mm/min (6e24 s)
+    ("feed below 0.001", "G1 X10 F0.0000000000000000000001\n", NcSemanticError, 1, 8,
+     "below the smallest the 840D accepts, F0.001"),
     ("string as number", "G1 X=\"A\"\n", NcSemanticError, 1, 6, "X needs a number"),
     ("ijk with g1", "G1 X1 I2 F100\n", NcSemanticError, 1, 7, "I is only allowed with a circle"),
     ("block number mid", "G1 X1 N20\n", NcSemanticError, 1, 7, "a block number N must begin the block"),

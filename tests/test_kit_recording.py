@@ -33,7 +33,11 @@ cli.add_command(gap)
 
 
 def run(*args):
-    return CliRunner().invoke(cli, ["gap", *map(str, args)], catch_exceptions=False)
+    """``ncsim gap ARGS`` on the MIKRON unless ARGS name a machine (gap requires --machine)."""
+    args = [*map(str, args)]
+    if "--machine" not in args:
+        args += ["--machine", "mikron"]
+    return CliRunner().invoke(cli, ["gap", *args], catch_exceptions=False)
 
 
 @pytest.fixture(scope="module")

@@ -227,7 +227,7 @@ def test_ncsim_gap_refuses_to_guess_the_pass(notch, tmp_path):
     sel = rows_of(notch, 9, 0.9, 11, 0.5)
     csv = tmp_path / "pass2.csv"
     write_measured_csv(MeasuredTrace(t_s=notch["t"][sel], pos_mm=notch["q"][sel]), csv)
-    args = ["gap", str(notch["prog"]), "--measured", str(csv), "--effects", "transition",
+    args = ["gap", str(notch["prog"]), "--machine", "mikron", "--measured", str(csv), "--effects", "transition",
             "--no-combine"]
     r = CliRunner().invoke(cli, args)
     assert r.exit_code == 2 and r.output.count("\n") == 1

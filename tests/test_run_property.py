@@ -16,6 +16,7 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from ncsim.cli.main import cli
+from ncsim.units import mm_min_to_mm_s
 
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
@@ -99,3 +100,48 @@ def test_run_json_has_no_nan_no_negative_time_and_adds_up(tmp_path_factory, text
     assert _close(s["feed_time_s"] + s["rapid_time_s"], s["moving_time_s"], total)
     assert _close(s["moving_time_s"] + s["standstill_time_s"], total, total)
     assert _close(sum(b["duration_s"] for b in s["blocks_detail"]), s["moving_time_s"], total)
+
+
+def _value(draw) -> str:
+    """A number as a program may hold it: any finite double written out in full (up to 1e308
+    with 30 decimals), a short one, or an edge: 0, the least feed 0.001, just under it."""
+    x = draw(st.one_of(st.floats(allow_nan=False, allow_infinity=False),
+                       st.floats(-1e4, 1e4), st.floats(-1e-3, 1e-3),
+                       st.sampled_from([0.0, 0.001, 0.000999, 1e-22, 999999.999, 1e9, 1e12])))
+    return draw(st.sampled_from([f"{x:.30f}", f"{x:.6f}", f"{x:g}".replace("e", "EX")]))
+
+
+@st.composite
+def one_block(draw) -> str:
+    """One block of the words that carry numbers into the time: a move with its feed, a dwell,
+    an arc by radius or centre, a tolerance or rounding distance, a spindle speed."""
+    v = lambda: _value(draw)                                   # noqa: E731
+    block = draw(st.sampled_from([
+        "G1 X{} F{}", "G0 X{} Y{}", "G1 X{} Y{} Z{} F{}", "G2 X{} Y{} CR={} F{}",
+        "G3 X{} I{} F{}", "G4 F{}", "G4 S{}", "G642 CTOL={} G1 X{} F{}", "G641 ADIS={} G1 Y{} F{}",
+        "G95 S{} M3 G1 X{} F{}", "G93 G1 X{} F{}", "COMPCAD G1 X{} Y{} F{}"]))
+    return "G17 G90 G64\n" + block.format(*(v() for _ in range(block.count("{}")))) + "\nM30\n"
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(one_block())
+def test_any_single_block_gives_finite_numbers_or_one_located_line(tmp_path_factory, text):
+    """Issue 16: whatever the numbers of a block (a feed of 1e-22 once gave a cycle time of
+    6e24 s), ``run --json`` gives finite, non-negative times, or exit 2 with one line located at
+    the block (``FILE:2:COL``), never a traceback."""
+    path = tmp_path_factory.mktemp("prog") / "one.mpf"
+    path.write_text(text)
+    res = CliRunner().invoke(cli, ["run", str(path), "--machine", "mikron", "--json"])
+    assert "Traceback" not in res.output and "RuntimeWarning" not in res.stderr
+    if res.exit_code == 2:
+        errors = [ln for ln in res.stderr.strip().splitlines() if ": warning: " not in ln]
+        assert len(errors) == 1 and errors[0].startswith(f"{path}:2:"), res.stderr
+        return
+    assert res.exit_code == 0, res.output
+    s = json.loads(res.stdout, parse_constant=lambda c: (_ for _ in ()).throw(AssertionError(c)))
+    _finite_everywhere(s)
+    for key in ("cycle_time_s", "moving_time_s", "standstill_time_s", "dwell_time_s"):
+        assert s[key] >= 0.0, key
+    if "G93" not in text and "G95" not in text:    # a feed in mm/min: at least F0.001
+        slowest_s = s["path_length_mm"] / mm_min_to_mm_s(0.001)
+        assert s["moving_time_s"] <= slowest_s + 10.0      # + ramps and cycles at the ends

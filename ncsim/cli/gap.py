@@ -33,8 +33,9 @@ def _pairs(values, what: str) -> dict:
 
 @click.command("gap")
 @click.argument("programs", nargs=-1, type=FilePath())
-@click.option("--machine", "machine_name", default="mikron", show_default=True,
-              help="Machine: a bundled name or a TOML file.")
+@click.option("--machine", "machine_name", required=True,
+              help="Machine the program is simulated on: a bundled name (mikron, dmc60h) or a "
+                   "TOML file; the calibrated file (--write-machine) is this file edited.")
 @click.option("--measured", "measured_file", required=True, type=FilePath(),
               help="Measured trace (CSV) or published values (TOML summary).")
 @click.option("--format", "fmt", type=click.Choice(["auto", "csv", "kit", "umich", "summary"]),
@@ -61,12 +62,16 @@ def _pairs(values, what: str) -> dict:
               help="Write figures PREFIX-gap/-summary/-servo.(png|svg).")
 @click.option("--plot-format", type=click.Choice(["png", "svg"]), default="png", show_default=True)
 @click.option("--write-machine", "machine_out", default=None, type=FilePath(),
-              help="Write the machine file corrected with the fitted parameters.")
+              help="Write the --machine file calibrated with the fitted parameters (its comments "
+                   "kept, the fit and each changed machine datum recorded).")
+@click.option("--allow-bounds", is_flag=True,
+              help="Write the calibrated machine file even with fitted values on their search "
+                   "bounds (flagged in it); without it such a file is refused.")
 @click.option("--feed-unit", type=click.Choice(FEED_UNITS), default="mm/min", show_default=True,
               help="Feeds of the text output in this unit (the JSON keeps the unit in its keys).")
 def gap(programs, machine_name, measured_file, fmt, columns, units, sample_period_ms,
         work_offsets, setup_file, base, effects, no_combine, as_json, plot_prefix, plot_format,
-        machine_out, feed_unit) -> None:
+        machine_out, allow_bounds, feed_unit) -> None:
     """Diagnose the gap between PROGRAM(s) simulated on a machine and a measurement: where it is,
     which unmodelled effect causes it, and how much of it each effect closes."""
     from ncsim.gap.pipeline import diagnose
@@ -88,23 +93,39 @@ def gap(programs, machine_name, measured_file, fmt, columns, units, sample_perio
     for warning in result.machine.warnings:
         click.echo(warning.render(), err=True)
     out = result.as_dict()
-    if machine_out:
-        try:
-            FsPath(machine_out).write_text(result.corrected_machine_toml(), encoding="utf-8")
-        except OSError as exc:
-            raise UsageError(f"cannot write machine file {machine_out}: {exc.strerror}") from None
+    calibration = result.calibration()
+    refused = bool(machine_out and calibration.refused and not allow_bounds)
+    written_warnings = []
+    if machine_out and not refused:
+        written_warnings = _write_machine(result, machine_out)
         out["machine_written"] = machine_out
     plots = result.plot(plot_prefix, plot_format) if plot_prefix else []
     if plots:
         out["plots"] = plots
     if as_json:
         click.echo(json.dumps(_finite(out), indent=1, default=_json_default, allow_nan=False))
-        return
-    click.echo(result.text(feed_unit), nl=False)
-    for p in plots:
-        click.echo(f"wrote {p}")
-    if machine_out:
-        click.echo(f"wrote {machine_out}")
+    else:
+        click.echo(result.text(feed_unit), nl=False)
+        click.echo(calibration.text(), nl=False)
+        for p in plots:
+            click.echo(f"wrote {p}")
+        if machine_out and not refused:
+            click.echo(f"wrote {machine_out}")
+    for warning in written_warnings:
+        click.echo(warning.render(), err=True)
+    if refused:
+        raise UsageError(calibration.refusal(machine_out))
+
+
+def _write_machine(result, machine_out: str) -> list:
+    """Write the calibrated machine file and load it back with the machine loader: the
+    warnings it gives (values outside the usual range of real machines) are returned."""
+    from ncsim.machine import load_machine
+    try:
+        FsPath(machine_out).write_text(result.corrected_machine_toml(), encoding="utf-8")
+    except OSError as exc:
+        raise UsageError(f"cannot write machine file {machine_out}: {exc.strerror}") from None
+    return list(load_machine(machine_out).warnings)
 
 
 def _offsets(values) -> dict:

@@ -21,10 +21,16 @@ decides:
   (``servo_part.diagnose_split``): the *planner part* (ncsim against the command, planner
   effects only) and the *servo part* (command against actual, trace effects only); with no
   program only the servo part is possible;
-* **what goes back into the machine file** (:meth:`GapResult.corrected_machine_toml`): the
-  planner diagnosis's corrected model (or the bare machine) plus the servo part's best effect,
-  with notes for what a machine file cannot hold (the acceleration mode, a feed-forward
-  weight, a delay).
+* **which of equally good hypotheses** (:meth:`GapResult.prefer_plausible`): an operator's
+  override before a machine-data change that fits as well, the other named
+  (``calibration.prefer_plausible``, judged by :meth:`GapResult.evaluator`, the diagnosis's
+  own evaluator with the program interpreted again where a model needs it);
+* **what goes back into the machine file** (:meth:`GapResult.corrected_machine_toml`,
+  :meth:`GapResult.calibration`): the planner diagnosis's corrected model (or the bare
+  machine) plus the servo part's best effect, written into the source file's text (comments
+  kept) with each changed machine datum, the values on search bounds and notes for what a
+  machine file cannot hold (the acceleration mode, a feed-forward weight, a delay);
+  ``ncsim.gap.calibration``.
 
 The :class:`GapResult` it returns is what the command prints: ``as_dict()`` (``--json``),
 ``text()``, ``plot(prefix)``.
@@ -33,7 +39,7 @@ from __future__ import annotations
 
 import os
 import re
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path as FsPath
 from typing import Callable, Mapping, Sequence
 
@@ -69,18 +75,28 @@ class GapResult:
     measured: MeasuredTrace | None = None   # the trace (``kind`` trace, split, servo)
     path: object | None = None              # the interpreted program (trace, split)
     registration: Registration | None = None  # where the trace lies on the program
+    #: the machine file's text and its name as given (None: a MachineSpec was given)
+    machine_text: str | None = None
+    machine_label: str = ""
+    #: the program interpreted again on another machine (``diagnose.ModelCache``)
+    reinterpret: Callable | None = None
+    #: equally good hypotheses not in the corrected model (``calibration.prefer_plausible``)
+    alternatives: list = field(default_factory=list)
+    _evaluator: object = field(default=None, repr=False, compare=False)
+    _calibration: object = field(default=None, repr=False, compare=False)
 
     def as_dict(self) -> dict:
         """The ``ncsim gap --json`` document (README "Sim-to-real gap")."""
         if self.kind == "summary":
             return self.planner.as_dict()
         reg = {} if self.registration is None else {"registration": self.registration.as_dict()}
+        cal = {"calibration": self.calibration().as_dict()}
         if self.kind == "split":
             return {**reg, "planner_part": self.planner.as_dict(),
-                    "servo_part": self.servo.as_dict()}
+                    "servo_part": self.servo.as_dict(), **cal}
         if self.kind == "trace":
-            return {**reg, "diagnosis": self.planner.as_dict()}
-        return {"servo_part": self.servo.as_dict()}
+            return {**reg, "diagnosis": self.planner.as_dict(), **cal}
+        return {"servo_part": self.servo.as_dict(), **cal}
 
     def text(self, feed_unit: str = "mm/min") -> str:
         """The diagnosis as text, every feed in ``feed_unit`` (``units.FEED_UNITS``)."""
@@ -109,12 +125,33 @@ class GapResult:
             files += plot.plot_servo(self.servo, ServoEvaluator(self.measured, self.servo.signal),
                                      prefix, fmt)
         if self.planner is not None:
-            from ncsim.gap.diagnose import Evaluator
-            target = self.measured.command() if self.measured.has_command else self.measured
-            files += plot.plot_trace(self.planner, Evaluator(self.path, target,
-                                                             registration=self.registration),
-                                     prefix, fmt)
+            files += plot.plot_trace(self.planner, self.evaluator(), prefix, fmt)
         return files
+
+    def evaluator(self):
+        """The planner part's ``diagnose.Evaluator``, judging models exactly as the diagnosis
+        did: the same target (the command when recorded), registration, and the program
+        interpreted again where a model changes how it is interpreted (a G64 reset mode)."""
+        if self._evaluator is None:
+            from ncsim.gap.diagnose import Evaluator, interpretation_key
+            target = self.measured.command() if self.measured.has_command else self.measured
+            self._evaluator = Evaluator(self.path, target, registration=self.registration,
+                                        reinterpret=self.reinterpret,
+                                        path_key=interpretation_key(self.machine))
+        return self._evaluator
+
+    def prefer_plausible(self) -> None:
+        """Of equally good hypotheses, the more plausible one in the corrected model
+        (``calibration.prefer_plausible``); the others are kept in ``alternatives``."""
+        if self.kind not in ("trace", "split") or self.planner is None:
+            return
+        from ncsim.gap.calibration import prefer_plausible
+        self.planner, alternatives = prefer_plausible(self.evaluator(), self.planner)
+        self._calibration = None
+        self.alternatives = list(alternatives)
+        if alternatives:
+            self.planner = replace(self.planner, notes=self.planner.notes + tuple(
+                f"machine file: {a.text()}" for a in alternatives))
 
     def corrected_model(self) -> tuple[Model, list[tuple[str, dict]]]:
         """The corrected model and the fitted ``(effect, params)`` it adds to the machine."""
@@ -137,18 +174,77 @@ class GapResult:
         desc = (spec.description + " -- " if spec.description else "") + "corrected by ncsim gap"
         return replace(spec, description=desc)
 
-    def corrected_machine_toml(self) -> str:
-        """The corrected machine file, with a header naming the fit and what it cannot hold."""
+    def calibration(self):
+        """What the corrected machine file changes, flags and leaves out
+        (``calibration.Calibration``; computed once, after ``prefer_plausible``)."""
+        if self._calibration is None:
+            self._calibration = self._calibrate()
+        return self._calibration
+
+    def _calibrate(self):
+        from ncsim.gap.calibration import (Calibration, bound_hits, complete_ovl_changes,
+                                           machine_changes)
         _, fitted = self.corrected_model()
-        header = [f"Machine file corrected by `ncsim gap` against {self.measured_file}.",
-                  "Fitted: " + "; ".join(f"{n} " + ", ".join(f"{k}={_value(v)}" for k, v in p.items())
-                                         for n, p in fitted)]
-        header += [note for name, params in fitted for note in _machine_file_notes(name, params)]
-        return dump_machine_toml(self.corrected_machine(), "\n".join(header))
+        new = self.corrected_machine()
+        changes = machine_changes(self.machine, new, [n for n, _ in fitted])
+        if self.machine_text is not None:
+            changes = complete_ovl_changes(self.machine, new, changes, self.machine_text)
+        notes = [note for name, params in fitted for note in _machine_file_notes(name, params)]
+        times = {}
+        if self.path is not None and self.planner is not None:
+            from ncsim.motion import FULL_MODEL
+            model = self.corrected_model()[0]
+            cache = self.evaluator().cache
+            times = {"base_cycle_time_s": cache.motion(Model(machine=self.machine)).total_time_s,
+                     "cycle_time_s": cache.motion(model).total_time_s}
+            if model.options != FULL_MODEL:
+                notes.append(f"the base model '{self.planner.base}' leaves planner effects out "
+                             "that a machine file cannot switch off: `ncsim run` on this file "
+                             "simulates them")
+        return Calibration(source=self.machine_label or self.machine.source, fitted=fitted,
+                           changes=changes, bounds=bound_hits(fitted),
+                           alternatives=list(self.alternatives), notes=notes,
+                           fit_lines=self._fit_lines(), **times)
 
+    def _fit_lines(self) -> list[str]:
+        """The gap and rms before and after the correction, for the file's header."""
+        from ncsim.units import mm_s_to_mm_min
+        out = []
+        if self.planner is not None and self.kind in ("trace", "split"):
+            b = self.planner.gap_before
+            a = (self.planner.combined or self.planner.best).gap_after
+            what = "planner part (ncsim against the command)" if self.kind == "split" else "trace"
+            out.append(f"{what}, base model '{self.planner.base}': gap {b.gap:.4g} -> {a.gap:.4g}; "
+                       f"feed {mm_s_to_mm_min(b.feed_rms_mm_s):.4g} -> "
+                       f"{mm_s_to_mm_min(a.feed_rms_mm_s):.4g} mm/min rms, time "
+                       f"{b.time_rms_ms:.4g} -> {a.time_rms_ms:.4g} ms rms, cycle time "
+                       f"{b.cycle_time_error_s:+.4f} -> {a.cycle_time_error_s:+.4f} s, contour "
+                       f"{b.contour_rms_um:.4g} -> {a.contour_rms_um:.4g} um rms")
+        elif self.planner is not None:
+            b = self.planner.gap_before
+            a = (self.planner.combined or self.planner.best).gap_after
+            out.append(f"published values, base model '{self.planner.base}': gap {b.gap:.4g} "
+                       f"-> {a.gap:.4g}")
+        if self.servo is not None:
+            s = self.servo
+            out.append(f"servo part (command against actual {s.signal}): gap "
+                       f"{s.gap_before.gap:.4g} -> {s.best.gap_after.gap:.4g}, rms "
+                       f"{s.gap_before.rms:.4g} -> {s.best.gap_after.rms:.4g} "
+                       f"{'mm/s' if s.signal == 'velocity' else 'mm'} ({s.best.effect})")
+        return out
 
-def _value(v) -> str:
-    return v if isinstance(v, str) else f"{float(v):.6g}"
+    def corrected_machine_toml(self) -> str:
+        """The corrected machine file: the source file edited in place (its comments and
+        provenance kept) under a header recording the fit, the machine data changed, the
+        alternatives, the values on bounds and what a machine file cannot hold
+        (``ncsim.gap.calibration``)."""
+        from ncsim.gap.calibration import edit_machine_text
+        cal = self.calibration()
+        program = getattr(self.planner, "program", "") or ""
+        header = cal.header(self.measured_file, program)
+        if self.machine_text is None:
+            return dump_machine_toml(self.corrected_machine(), "\n".join(header))
+        return edit_machine_text(self.machine_text, cal.changes, header)
 
 
 def _machine_file_notes(name: str, params: Mapping) -> list[str]:
@@ -297,6 +393,8 @@ def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
 
     stages = Stages(progress, 4)
     spec = machine if isinstance(machine, MachineSpec) else load_machine(machine)
+    source = {} if isinstance(machine, MachineSpec) else {
+        "machine_text": machine_file_text(machine), "machine_label": str(machine)}
     offsets = dict(load_setup(setup)) if setup is not None else {}
     offsets.update(work_offsets or {})
     programs = [str(p) for p in programs]
@@ -313,7 +411,7 @@ def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
             raise UsageError("published values need the PROGRAM(s) they were measured on")
         d = diagnose_summary(programs, spec, load_measured_summary(file), base=base or "axis-only",
                              candidates=cands, do_combine=combine)
-        return GapResult("summary", file, spec, planner=d)
+        return GapResult("summary", file, spec, planner=d, **source)
 
     if kind == "umich":
         trace = load_umich_csv(file)
@@ -335,7 +433,7 @@ def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
                              f"({', '.join(SERVO_CANDIDATES)})")
         stages.expect(len(servo_cands or SERVO_CANDIDATES))
         s = diagnose_servo(trace, candidates=servo_cands, machine=spec, progress=stages)
-        return GapResult("servo", file, spec, servo=s, measured=trace)
+        return GapResult("servo", file, spec, servo=s, measured=trace, **source)
 
     from ncsim.gap.diagnose import default_candidates
     from ncsim.gap.diagnose import diagnose as diagnose_trace
@@ -351,26 +449,46 @@ def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
     reg = register_trace(trace, path, spec, offsets)
     if not trace.has_command:
         trace_cands = list(cands or default_candidates())
-        stages.expect(len(trace_cands) + (1 if combine else 0))
+        stages.expect(len(trace_cands) + (1 if combine else 0) + 1)
         d = diagnose_trace(path, spec, trace, base=base or "full", candidates=trace_cands,
                            do_combine=combine, program=programs[0], registration=reg,
                            progress=stages, reinterpret=reinterpret,
                            recorder_window_ms=RECORDER_WINDOW_MS.get(kind))
-        return GapResult("trace", file, spec, planner=d, measured=trace, path=path,
-                         registration=reg)
+        result = GapResult("trace", file, spec, planner=d, measured=trace, path=path,
+                           registration=reg, reinterpret=reinterpret, **source)
+        stages("plausible hypotheses")
+        result.prefer_plausible()
+        return result
     from ncsim.gap.servo_part import diagnose_split
     planner_cands = [c for c in (cands or default_candidates()) if c in COMMAND_EFFECTS]
     if not planner_cands:
         raise UsageError("--effects names no planner effect for the planner part")
     stages.expect(len(planner_cands) + (1 if combine else 0)
-                  + len(servo_cands or SERVO_CANDIDATES))
+                  + len(servo_cands or SERVO_CANDIDATES) + 1)
     split = diagnose_split(path, spec, trace, base=base or "full",
                            planner_candidates=planner_cands, servo_candidates=servo_cands or None,
                            do_combine=combine, program=programs[0], registration=reg,
                            progress=stages, reinterpret=reinterpret,
                            recorder_window_ms=RECORDER_WINDOW_MS.get(kind))
-    return GapResult("split", file, spec, planner=split.planner, servo=split.servo,
-                     measured=trace, path=path, registration=reg)
+    result = GapResult("split", file, spec, planner=split.planner, servo=split.servo,
+                       measured=trace, path=path, registration=reg, reinterpret=reinterpret,
+                       **source)
+    stages("plausible hypotheses")
+    result.prefer_plausible()
+    return result
+
+
+def machine_file_text(name_or_path: str | FsPath) -> str:
+    """The text of the machine file ``load_machine`` reads for ``name_or_path`` (a TOML path
+    or a bundled machine's name), for the calibrated file to edit."""
+    from importlib import resources
+    p = FsPath(name_or_path)
+    try:
+        if p.suffix == ".toml" or p.exists():
+            return p.read_text(encoding="utf-8")
+        return (resources.files("ncsim.machines") / f"{p.name}.toml").read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:    # it loaded a moment ago
+        raise UsageError(f"cannot read machine file {name_or_path}: {exc}") from None
 
 
 def warmup_kernels() -> None:

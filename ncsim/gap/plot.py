@@ -38,36 +38,86 @@ def _save(fig, prefix: str, suffix: str, fmt: str) -> str:
     return out
 
 
-def plot_trace(d, evaluator, prefix: str, fmt: str = "png") -> list[str]:
-    """Feed, contour deviation and time error: measured against base and corrected models."""
-    plt = _plt()
-    from ncsim.gap.diagnose import compare_speed_mm_s
-    final = d.corrected_model
-    _, al_b, mt_b = evaluator.evaluate(d.base_model, full=True)
-    _, al_c, mt_c = evaluator.evaluate(final, full=True)
+def trace_series(evaluator, model) -> dict:
+    """What the trace figure draws of one model, and the gap metrics those very arrays give
+    (the figure and the text agree by construction; ``tests/test_gap_plot.py`` recomputes them):
+
+    * ``t_model_s``, ``speed_model_mm_s``: the model's path feed on the measured clock (its
+      grid shifted by the alignment's clock offset), through the measured speed's operator;
+    * ``t_s``: the measured samples' times (the recording's clock); ``time_error_ms``: measured minus model time at
+      the same place, counted from its median over the compared samples (a constant is only a
+      clock offset, ``metrics.gap_metrics``); ``contour_um``: distance to the model path;
+      ``valid``: samples placed on the model path; ``compared``: samples in motion whose time
+      error counts; ``outside_ms``: the time outside the model's motion of samples in motion
+      the model does not reach (``unmatched``);
+    * ``time_rms_ms``, ``contour_rms_um``: the rms of these arrays, as the text reports them.
+    """
+    from ncsim.gap.metrics import compare_speed_mm_s, motion_span_s, rms
+    m, al, mt = evaluator.evaluate(model, full=True)
     scales = evaluator.scales
+    model_speed = compare_speed_mm_s(mt, scales)
+    top = max(float(np.max(mt.feed_mm_s)), float(np.max(al.feed_mm_s)), 1e-9)
+    thr = scales.moving_mm_s(top)
+    v_model = np.interp(al.t_sim_s, mt.t_s, model_speed)
+    compared = al.valid & ((al.feed_mm_s > thr) | (v_model > thr))
+    unmatched = ~al.valid & (al.feed_mm_s > thr)
+    _, _, t_start, t_end = motion_span_s(al, mt, model_speed, thr)
+    outside = np.maximum(np.maximum(t_start - al.t_s, al.t_s - t_end), 0.0)
+    te = np.asarray(al.time_error_s, dtype=np.float64)
+    median = float(np.median(te[compared])) if np.any(compared) else 0.0
+    time_error_ms = s_to_ms(te - median)
+    dist_um = mm_to_um(np.asarray(al.distance_mm, dtype=np.float64))
+    return {"t_model_s": mt.t_s + al.time_shift_s, "speed_model_mm_s": model_speed,
+            "t_s": np.asarray(evaluator.measured.t_s), "time_error_ms": time_error_ms, "contour_um": dist_um,
+            "valid": np.asarray(al.valid), "compared": compared, "unmatched": unmatched,
+            "outside_ms": s_to_ms(outside),
+            "time_rms_ms": rms(np.concatenate([time_error_ms[compared],
+                                               s_to_ms(outside[unmatched])])),
+            "contour_rms_um": rms(dist_um[al.valid]), "metrics": m}
+
+
+def trace_models(d) -> tuple:
+    """``((label, model), (label, model))``: the base model and the corrected model the text
+    reports (the combined one when there is one, else the best single fit)."""
+    final = d.combined if d.combined is not None else d.best
+    return ((f"base model ({d.base})", d.base_model),
+            (f"corrected ({final.effect})", d.corrected_model))
+
+
+def plot_trace(d, evaluator, prefix: str, fmt: str = "png") -> list[str]:
+    """Feed, contour deviation and time error: measured against base and corrected models
+    (:func:`trace_series`; ``evaluator`` judges models as the diagnosis did, re-interpreting
+    the program where a model changes its reset mode)."""
+    plt = _plt()
+    (label_b, model_b), (label_c, model_c) = trace_models(d)
+    base = trace_series(evaluator, model_b)
+    corr = trace_series(evaluator, model_c)
     meas = evaluator.measured
     fig, ax = plt.subplots(3, 1, figsize=(11, 9), sharex=True)
     ax[0].plot(meas.t_s, evaluator.measured_speed, ".", ms=2, color="k", label="measured")
-    ax[0].plot(mt_b.t_s + al_b.time_shift_s, compare_speed_mm_s(mt_b, scales), lw=1, color="tab:red",
-               label=f"base model ({d.base})")
-    label = d.combined.effect if d.combined is not None else d.best.effect
-    ax[0].plot(mt_c.t_s + al_c.time_shift_s, compare_speed_mm_s(mt_c, scales), lw=1, color="tab:blue",
-               label=f"corrected ({label})")
+    for s, label, color in ((base, label_b, "tab:red"), (corr, label_c, "tab:blue")):
+        ax[0].plot(s["t_model_s"], s["speed_model_mm_s"], lw=1, color=color,
+                   label=f"{label}: time {s['time_rms_ms']:.3g} ms rms")
     ax[0].set_ylabel("path feed (mm/s)")
     ax[0].legend(loc="upper right", fontsize=8)
-    ax[0].set_title(f"gap diagnosis: {d.program or ''} against {d.source}")
-    ax[1].plot(meas.t_s[al_c.valid], mm_to_um(al_c.distance_mm[al_c.valid]), ".", ms=2, color="tab:blue",
-               label="measured to corrected path")
-    ax[1].plot(meas.t_s[al_b.valid], mm_to_um(al_b.distance_mm[al_b.valid]), ".", ms=1.5, color="tab:red",
-               alpha=0.5, label="measured to base path")
+    ax[0].set_title(f"gap diagnosis: {FsPath(d.program).name if d.program else ''} against "
+                    f"{FsPath(d.source).name}", fontsize=10)
+    for s, label, color, size in ((corr, "measured to corrected path", "tab:blue", 2),
+                                  (base, "measured to base path", "tab:red", 1.5)):
+        v = s["valid"]
+        ax[1].plot(s["t_s"][v], s["contour_um"][v], ".", ms=size, color=color,
+                   label=f"{label} ({s['contour_rms_um']:.3g} um rms)")
     ax[1].set_ylabel("contour deviation (um)")
     ax[1].legend(loc="upper right", fontsize=8)
-    ax[2].plot(meas.t_s[al_b.valid], s_to_ms(al_b.time_error_s[al_b.valid]), lw=1, color="tab:red",
-               label="base")
-    ax[2].plot(meas.t_s[al_c.valid], s_to_ms(al_c.time_error_s[al_c.valid]), lw=1, color="tab:blue",
-               label="corrected")
-    ax[2].set_ylabel("time error at the place (ms)")
+    for s, label, color in ((base, "base", "tab:red"), (corr, "corrected", "tab:blue")):
+        c = s["compared"]      # the samples whose time error the rms counts (in motion)
+        ax[2].plot(s["t_s"][c], s["time_error_ms"][c], lw=1, color=color,
+                   label=f"{label} ({s['time_rms_ms']:.3g} ms rms)")
+        u = s["unmatched"]
+        if np.any(u):
+            ax[2].plot(s["t_s"][u], s["outside_ms"][u], "x", ms=3, color=color,
+                       label=f"{label}: outside the model's motion")
+    ax[2].set_ylabel("time error at the place,\nfrom its median (ms)")
     ax[2].set_xlabel("measured time (s)")
     ax[2].legend(loc="upper left", fontsize=8)
     for a in ax:

@@ -20,7 +20,7 @@ import numpy as np
 
 from ncsim.geometry import PLANE_AXES
 from ncsim.nc import program as P
-from ncsim.nc.context import WORD_VALUE_LIMIT
+from ncsim.nc.context import MIN_PROGRAMMED_F, WORD_VALUE_LIMIT
 from ncsim.nc.diameter import diameter_applies
 from ncsim.nc.frames import arc_normal
 from ncsim.nc.moves import (MIN_LINE_MM, MIN_RADIUS_MM, arc_columns, circle_error_mm,
@@ -70,7 +70,7 @@ class ColumnPath:
         if (linear & has_ijk).any() or (arc & has_xyz & ~has_ijk).any() or (arc & present[:, 3 + perp]).any():
             return False
         f_present = present[:, 6]
-        if not (vals[f_present, 6] > 0.0).all():
+        if not (vals[f_present, 6] >= MIN_PROGRAMMED_F).all():   # else the located error
             return False
         feed = _ffill(mm_min_to_mm_s(vals[:, 6] * st.feed_scale), f_present, st.feed_mm_s)
         moving = (linear & has_xyz) | (arc & (has_xyz | has_ijk))

@@ -35,6 +35,9 @@ from ncsim.units import mm_s_to_mm_min
 
 WARNING_CAP = 20             # warnings of one kind shown before they are only counted
 WORD_VALUE_LIMIT = 1e9       # |value| of a word: the 840D accepts +-999 999 999.9999
+#: the smallest programmable feed F, in the programmed unit (Programming Manual Fundamentals, list
+#: of addresses: 0.001 <= F <= 999 999.999); a smaller F would give years of cycle time
+MIN_PROGRAMMED_F = 0.001
 DEFAULT_CIRCLE_ERROR_CONST_MM = 0.01   # MD21000 $MC_CIRCLE_ERROR_CONST (840D default)
 DEFAULT_CIRCLE_ERROR_FACTOR = 0.001    # MD21010 $MC_CIRCLE_ERROR_FACTOR (840D default)
 #: blocks a program may execute beyond the lines of its files before it is taken for an endless

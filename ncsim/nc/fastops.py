@@ -35,7 +35,7 @@ from __future__ import annotations
 import math
 
 from ncsim.nc import program as P
-from ncsim.nc.context import WORD_VALUE_LIMIT, BlockContext
+from ncsim.nc.context import MIN_PROGRAMMED_F, WORD_VALUE_LIMIT, BlockContext
 from ncsim.nc.expr import FUNCTIONS, evaluate
 from ncsim.nc.flow import find_destination, reads_state
 from ncsim.units import mm_min_to_mm_s
@@ -598,7 +598,7 @@ class OpCompiler(_FlowOps):
                     f"            raise Fallback\n")
         if feed is not None:
             src += (f"        fv = {feed}\n"
-                    f"        if type(fv) is not float or not abs(fv) < LIMIT or not fv > 0.0:\n"
+                    f"        if type(fv) is not float or not abs(fv) < LIMIT or not fv >= MIN_F:\n"
                     f"            raise Fallback\n")
         src += (f"    except Exception:\n        return generic(fr, {pc})\n"
                 f"    motion = {'st.motion' if g is None else g}\n"
@@ -627,7 +627,7 @@ class OpCompiler(_FlowOps):
                     "    line_to(mctx, [w0, w1, w2], list(st.frame.apply(w0, w1, w2)), "
                     "motion == 0)\n")
         ns.setdefault("generic", self.interp.generic_uncounted)
-        ns.update(LIMIT=WORD_VALUE_LIMIT, mm_min_to_mm_s=mm_min_to_mm_s,
+        ns.update(LIMIT=WORD_VALUE_LIMIT, MIN_F=MIN_PROGRAMMED_F, mm_min_to_mm_s=mm_min_to_mm_s,
                   line_to=self.interp.moves.line_to, mctx=_MoveCtx(block.line))
         return self._generate(src, ns)
 

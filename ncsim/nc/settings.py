@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 
+from ncsim.nc.context import MIN_PROGRAMMED_F
 from ncsim.nc.diameter import DIAMETER_COMMANDS
 from ncsim.nc.expr import format_value
 from ncsim.nc.frames import Frame, mirroring, rotation_in_plane, rotation_rpy, scaling, translation
@@ -197,6 +198,10 @@ class Settings:
             value, col = values["F"]
             if not value > 0.0:
                 raise ctx.error(f"feed F must be positive, got {format_value(value)}", col)
+            if value < MIN_PROGRAMMED_F:
+                raise ctx.error(f"feed F{format_value(value)} is below the smallest the 840D "
+                                f"accepts, F{format_value(MIN_PROGRAMMED_F)} (Programming Manual "
+                                "Fundamentals, list of addresses: 0.001 <= F <= 999 999.999)", col)
             state.f_value = value
             st.feed_mm_s = mm_min_to_mm_s(value * st.feed_scale)
         if "S" in values and not dwell:

@@ -225,8 +225,12 @@ def round_corners(path: Path, machine: MachineSpec, options: ModelOptions,
     mode_a = (np.full(len(ci), options.accel_mode) if options.accel_mode is not None
               else path.accel_mode[ac])
     soft = (mode_a == SOFT) & options.jerk_limited_ramps
-    feed_a = np.where(path.rapid[ac], np.inf, path.feed_mm_s[ac])
-    feed_b = np.where(path.rapid[bc], np.inf, path.feed_mm_s[bc])
+    # the feeds the NC runs on either side: F times the feed override (kinematics), as the
+    # blocks' own set points are capped in plan.limits -- never the programmed F alone
+    feed_a = np.where(path.rapid[ac], np.inf,
+                      kin.overridden_feed_mm_s(path.feed_mm_s[ac], ncu.feed_override))
+    feed_b = np.where(path.rapid[bc], np.inf,
+                      kin.overridden_feed_mm_s(path.feed_mm_s[bc], ncu.feed_override))
     v_blend, v_limit = rounding_feed_mm_s(phic, blend_len, d, t1c, t2c, machine, options, soft,
                                           feed_a, feed_b)
     v64 = kin.corner_feed_g64_mm_s(t1c, t2c, machine.max_accel_mm_s2, ncu.ipo_cycle_s,
