@@ -1,9 +1,16 @@
-"""Benchmark: `ncsim gap` on million-row traces, wall clock of the whole command.
+"""Benchmark: `ncsim gap`, wall clock of the whole command.
 
-    python benchmarks/bench_gap_speed.py [--rows 1000000] [--repeat 1] [--out FILE.md]
+    python benchmarks/bench_gap_speed.py [--repeat 2] [--rows 1000000] [--out FILE.md]
+    python benchmarks/bench_gap_speed.py --rows 0 --repeat 2      # the KIT Notch alone
 
-Two traces, both written to a temporary folder and diagnosed by the installed ``ncsim`` command
-(a fresh process: start-up, reading, registration, every fit and the report included):
+First the real KIT DMC 60H "Notch" recording as recorded (1,646 rows at 50 Hz, commanded and
+actual positions) against its program on ``machines/dmc60h.toml``, every candidate effect:
+the command of issue 18 (target: 20 s warm on this project's 2-core machine). It runs once
+to warm numba's cache, then ``--repeat`` times; the least wall time is reported.
+
+Then, unless ``--rows 0``, two traces of ``--rows`` rows, both written to a temporary folder
+and diagnosed by the installed ``ncsim`` command (a fresh process: start-up, reading,
+registration, every fit and the report included):
 
 * ``bore``: the fuzzing reproducer H2 (``../shared/data/fuzz-repro``: ``G2_make_huge_trace.py``
   resamples ``G0_bore_trace_ok.csv`` to ``--rows`` rows; the same recipe here) diagnosed
@@ -66,7 +73,7 @@ def wall(cmd: list[str]) -> tuple[float, str]:
     return dt, r.stdout
 
 
-def stages(program: Path, trace: Path) -> list[tuple[str, float]]:
+def stages(program: Path, trace: Path, machine: str) -> list[tuple[str, float]]:
     from ncsim.gap.pipeline import diagnose
     out: list[tuple[str, float]] = []
     last = [time.perf_counter(), "start-up"]
@@ -76,32 +83,51 @@ def stages(program: Path, trace: Path) -> list[tuple[str, float]]:
         out.append((last[1], now - last[0]))
         last[:] = [now, name]
 
-    diagnose([program], trace, progress=cb)
+    diagnose([program], trace, machine, progress=cb)
     out.append((last[1], time.perf_counter() - last[0]))
     return out
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--rows", type=int, default=1_000_000)
+    ap.add_argument("--rows", type=int, default=1_000_000,
+                    help="rows of the resampled traces (0: the KIT Notch as recorded alone)")
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--out", default=None, help="also write the results as Markdown here")
     args = ap.parse_args(argv)
     ncsim = [sys.executable, "-m", "ncsim"]
-    lines = [f"## `ncsim gap` on {args.rows:,}-row traces", "",
+    notch = [*ncsim, "gap", str(KIT / "AL_2007_T4_Notch_Normal.mpf"), "--measured",
+             str(KIT / "DMC60H_AL2007T4_Notch_Normal_1.csv"), "--machine",
+             str(REPO / "machines" / "dmc60h.toml")]
+    wall(notch)                                   # numba's cache warm
+    times = [wall(notch)[0] for _ in range(max(args.repeat, 1))]
+    head = ["## `ncsim gap` on the KIT Notch recording", "",
+            "`ncsim gap ../shared/data/real/kit-dmc60h-notch-sinumerik/AL_2007_T4_Notch_Normal.mpf "
+            "--measured ../shared/data/real/kit-dmc60h-notch-sinumerik/"
+            "DMC60H_AL2007T4_Notch_Normal_1.csv --machine machines/dmc60h.toml` (1,646 rows, "
+            f"every candidate), warm numba cache, {os.cpu_count()} CPUs shared with other jobs: "
+            f"**{min(times):.1f} s** wall, least of {len(times)} "
+            f"({', '.join(f'{t:.1f}' for t in times)} s); target 20 s.", ""]
+    print("\n".join(head), flush=True)
+    if args.rows <= 0:
+        if args.out:
+            Path(args.out).write_text("\n".join(head))
+            print(f"wrote {args.out}")
+        return 0
+    lines = head + [f"## `ncsim gap` on {args.rows:,}-row traces", "",
              f"`python benchmarks/bench_gap_speed.py --rows {args.rows}` "
              f"({os.cpu_count()} CPUs), best of {args.repeat}:", "",
              "| trace | rows | file MB | `ncsim gap` wall s | stages (in-process) s |",
              "|---|---:|---:|---:|---|"]
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        cases = [("bore (fuzz H2)", FUZZ / "bore.mpf", make_bore(args.rows, folder)),
+        cases = [("bore (fuzz H2)", FUZZ / "bore.mpf", make_bore(args.rows, folder), "mikron"),
                  ("KIT DMC 60H, command + actual", KIT / "AL_2007_T4_Notch_Normal.mpf",
-                  make_kit(args.rows, folder))]
-        for name, program, trace in cases:
-            best = min(wall([*ncsim, "gap", str(program), "--measured", str(trace)])[0]
-                       for _ in range(args.repeat))
-            parts = stages(program, trace)
+                  make_kit(args.rows, folder), str(REPO / "machines" / "dmc60h.toml"))]
+        for name, program, trace, machine in cases:
+            best = min(wall([*ncsim, "gap", str(program), "--measured", str(trace),
+                             "--machine", machine])[0] for _ in range(args.repeat))
+            parts = stages(program, trace, machine)
             detail = ", ".join(f"{n} {s:.2f}" for n, s in parts if s >= 0.05)
             size = trace.stat().st_size / 1e6
             lines.append(f"| {name} | {args.rows:,} | {size:.0f} | {best:.1f} | {detail} |")

@@ -33,12 +33,17 @@ from dataclasses import dataclass
 from enum import IntEnum
 
 import numpy as np
+from scipy.ndimage import maximum_filter1d
 from scipy.optimize import minimize_scalar
 from scipy.signal import correlate, correlation_lags
 
 from ncsim.errors import UsageError
 from ncsim.gap.measured import MeasuredTrace, derived_speed_mm_s
 from ncsim.jit import njit
+
+#: the matching window of a sample follows the largest measured speed this many samples
+#: either side of it (``align``, step 3)
+LOCAL_SPEED_SAMPLES = 2
 
 
 class AlignPhase(IntEnum):
@@ -278,9 +283,10 @@ def _project_window(q, pts, s, ts, lo, hi, t_want, tol, s_prior, sigma_d, sigma_
 #: candidate model, hundreds of calls whose plain-Python cost (about 70 us a sample) adds up
 #: to far more than numba's start-up, whatever the length of one call
 @njit(cache=True, python_below=0)
-def _track(q, pts, s, ts, t_al, s_prior, restart, dt, v_max, slack, init_window, tol,
+def _track(q, pts, s, ts, t_al, s_prior, restart, reach, init_window, tol,
            sigma_d, sigma_s, out_j, out_u):
-    """Sequential monotone projection of the measured points ``q`` on the polyline."""
+    """Sequential monotone projection of the measured points ``q`` on the polyline; sample
+    ``i`` is searched up to ``reach[i]`` beyond the previous match."""
     n = pts.shape[0]
     s_prev = s[0]
     lag = 0.0  # current time error, carried through standstills
@@ -291,7 +297,7 @@ def _track(q, pts, s, ts, t_al, s_prior, restart, dt, v_max, slack, init_window,
             sig = sigma_s
         else:
             s_lo = s_prev
-            s_hi = s_prev + v_max * dt[i] + slack
+            s_hi = s_prev + reach[i]
             sig = 0.0
         lo = np.searchsorted(s, s_lo, side="left") - 1
         hi = np.searchsorted(s, s_hi, side="right")
@@ -316,14 +322,18 @@ def project_on_path(q_mm, sim_pos_mm, sim_s_mm, sim_t_s, t_aligned_s, s_prior_mm
                     dt_s, v_max_mm_s, slack_mm, init_window_mm, standstill_tol_mm,
                     sigma_d_mm, sigma_s_mm):
     """Monotone nearest-place matching (step 3 of the module docstring); returns the simulated
-    sample index ``j`` and fraction ``u`` of each matched place."""
+    sample index ``j`` and fraction ``u`` of each matched place. ``v_max_mm_s`` and
+    ``slack_mm`` (one value, or one per sample) bound how far along the path a sample is
+    searched beyond the previous match: ``v_max dt + slack``."""
     m = len(q_mm)
     out_j = np.zeros(m, dtype=np.int64)
     out_u = np.zeros(m)
     f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+    reach = np.broadcast_to(np.asarray(v_max_mm_s, dtype=np.float64) * f64(dt_s)
+                            + np.asarray(slack_mm, dtype=np.float64), (m,))
     _track(f64(q_mm), f64(sim_pos_mm), f64(sim_s_mm), f64(sim_t_s), f64(t_aligned_s),
-           f64(s_prior_mm), np.ascontiguousarray(restart, dtype=np.bool_), f64(dt_s),
-           float(v_max_mm_s), float(slack_mm), float(init_window_mm), float(standstill_tol_mm),
+           f64(s_prior_mm), np.ascontiguousarray(restart, dtype=np.bool_), f64(reach),
+           float(init_window_mm), float(standstill_tol_mm),
            float(sigma_d_mm), float(sigma_s_mm), out_j, out_u)
     return out_j, out_u
 
@@ -488,16 +498,26 @@ def align(measured: MeasuredTrace, sim_pos_mm, sim_t_s, sim_s_mm, *, sim_block=N
     restart[0] = True
     if measured.segment is not None:
         restart[1:] |= np.diff(measured.segment) != 0
-    v_max = 1.5 * max(v_max_sim, float(np.max(v_meas)) if m else 0.0) + 1e-9
+    # the measured samples advance along the path at the measured speed: a model much faster
+    # (a rapid not yet fitted) widens the search window by no more than twice that
+    v_meas_max = float(np.max(v_meas)) if m else 0.0
+    v_max = 1.5 * max(min(v_max_sim, 2.0 * v_meas_max) if v_meas_max > 0 else v_max_sim,
+                      v_meas_max) + 1e-9
     noise = estimate_noise_mm(q, v_meas, threshold) if noise_mm is None else float(noise_mm)
     slack = 5.0 * noise + 0.01 + v_max * 0.5 * period
     init_window = max(1.0, v_max * max(1.0, 10 * period)) + slack
+    # each sample is searched as far as the measured speed around it (its largest over
+    # +-LOCAL_SPEED_SAMPLES, with the margin of v_max) carries it: on a recording that rapids
+    # at 50 mm/s and mills at 6, a milling sample needs a window of 0.3 mm, not 2
+    v_local = np.minimum(1.5 * maximum_filter1d(v_meas, 2 * LOCAL_SPEED_SAMPLES + 1,
+                                                mode="nearest") + 1e-9, v_max) if m else v_max
+    slack_local = 5.0 * noise + 0.01 + v_local * 0.5 * period
     # at a fresh start the clock prior s(t - tau) picks among places the path visits twice:
     # distance measured against sigma_d (noise and contour errors), path length against
     # sigma_s (what the fastest feed covers in 0.1 s of clock uncertainty)
     sigma_d = max(3.0 * noise, 0.05)
     sigma_s = v_max * 0.1 + 1.0
-    j, u = project_on_path(q, pts, ss, ts, t_al, s_prior, restart, dt, v_max, slack,
+    j, u = project_on_path(q, pts, ss, ts, t_al, s_prior, restart, dt, v_local, slack_local,
                            init_window, 3.0 * noise + 1e-4, sigma_d, sigma_s)
     j1 = np.minimum(j + 1, n - 1)
     s_match = ss[j] + u * (ss[j1] - ss[j])

@@ -87,7 +87,8 @@ def _ncu(key: str, md: str, unit: str, get, effects) -> Datum:
 
 
 #: the corner-jump law ``A (MD32310 - 1) t_IPO`` ties MD32310 to these effects too
-_OVL_EFFECTS = ("corner_jump", "reset_mode", "axis_accel", "cycle_time", "accel_mode")
+_OVL_EFFECTS = ("corner_jump", "reset_mode", "axis_accel", "cycle_time", "accel_mode",
+                "corner_law")
 
 DATA: tuple[Datum, ...] = tuple(
     d for i in range(len(AXIS_NAMES)) for d in (
@@ -96,7 +97,7 @@ DATA: tuple[Datum, ...] = tuple(
         _axis(i, "max_accel_m_s2", "MD32300 $MA_MAX_AX_ACCEL", "m/s^2",
               lambda a: mm_s2_to_m_s2(a.max_accel_mm_s2), ("axis_accel", "accel_mode")),
         _axis(i, "max_jerk_m_s3", "MD32431 $MA_MAX_AX_JERK", "m/s^3",
-              lambda a: mm_s3_to_m_s3(a.max_jerk_mm_s3), ("axis_jerk",)),
+              lambda a: mm_s3_to_m_s3(a.max_jerk_mm_s3), ("axis_jerk", "corner_law")),
         _axis(i, "max_accel_ovl_factor", "MD32310 $MA_MAX_ACCEL_OVL_FACTOR", "",
               lambda a: a.max_accel_ovl_factor, _OVL_EFFECTS),
         _axis(i, "position_gain_1_s", "MD32200 $MA_POSCTRL_GAIN (as 1/s)", "1/s",
@@ -105,17 +106,17 @@ DATA: tuple[Datum, ...] = tuple(
     _ncu("ipo_cycle_ms", "IPO cycle, MD10050 $MN_SYSCLOCK_CYCLE_TIME x MD10070 "
          "$MN_IPO_SYSCLOCK_TIME_RATIO", "ms", lambda n: s_to_ms(n.ipo_cycle_s), ("cycle_time",)),
     _ncu("curvilinear_jerk_m_s3", "path jerk, cf. MD20600 $MC_MAX_PATH_JERK", "m/s^3",
-         lambda n: mm_s3_to_m_s3(n.curvilinear_jerk_mm_s3), ("ncu_path_jerk",)),
+         lambda n: mm_s3_to_m_s3(n.curvilinear_jerk_mm_s3), ("ncu_path_jerk", "corner_law")),
     _ncu("transition_time_ms", "no machine datum (paper eq. 13 dt)", "ms",
          lambda n: s_to_ms(n.transition_time_s), ("transition",)),
     _ncu("lookahead_blocks", "look-ahead depth, cf. MD28060 $MC_MM_IPO_BUFFER_SIZE", "blocks",
          lambda n: n.lookahead_blocks, ("lookahead",)),
     _ncu("reset_path_mode", "MD20150 $MC_GCODE_RESET_VALUES (group 10)", "",
-         lambda n: path_mode_name(n.reset_path_mode), ("reset_mode",)),
+         lambda n: path_mode_name(n.reset_path_mode), ("reset_mode", "corner_law")),
     _ncu("exact_stop_fine_settle_ms", "settle time in the MD36010 $MA_STOP_LIMIT_FINE window "
          "(no machine datum)", "ms", lambda n: s_to_ms(n.exact_stop_fine_settle_s), ("reset_mode",)),
     _ncu("exact_pos_mode_g0_to_g1", "MD20552 $MC_EXACT_POS_MODE_G0_TO_G1", "",
-         lambda n: n.exact_pos_mode_g0_to_g1, ("reset_mode",)),
+         lambda n: n.exact_pos_mode_g0_to_g1, ("reset_mode", "corner_law")),
     _ncu("reset_compressor", "MD20150 $MC_GCODE_RESET_VALUES (group 30)", "",
          lambda n: COMPRESSOR_NAMES[n.reset_compressor], ("compressor",)),
     _ncu("rapid_override_percent", "rapid override on the operator panel (no machine datum)",
@@ -200,7 +201,8 @@ def machine_changes(old: MachineSpec, new: MachineSpec,
 WRITTEN_EFFECTS = frozenset(n for n, e in EFFECTS.items() if e.kind == "planner") \
     | {"servo_lag", "compliance"}
 #: parameters of written effects that have no machine-file key
-UNWRITTEN_PARAMS = frozenset({("servo_lag", "ffw_weight"), ("accel_mode", "mode")})
+UNWRITTEN_PARAMS = frozenset({("servo_lag", "ffw_weight"), ("accel_mode", "mode"),
+                              ("corner_law", "mode")})
 
 
 @dataclass(frozen=True)

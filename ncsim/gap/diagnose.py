@@ -95,6 +95,7 @@ SETTLE_S = 0.5               # model held at rest after the end (lagging axes se
 WINDOW_MARGIN_S = 0.5        # model traces sampled this much beyond what a recording covers
 LEAD_S = 0.1                 # rest before the motion of a model trace through the recorder
 COMBINE_MIN_GAIN = 0.05      # combined model: an effect must shrink the gap by 5 % more
+MAX_REMEMBERED = 20000       # gaps of models an evaluator keeps (a few hundred bytes each)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -221,7 +222,9 @@ class ModelCache:
         pos = tr.pos_mm
         if model.post:
             pos = apply_trace_effects(model, tr, t, pos)
-            feed = np.linalg.norm(np.gradient(pos, t, axis=0), axis=1)
+            # the grid is uniform (np.arange steps): the scalar spacing is np.gradient's
+            # fast form, the same central differences
+            feed = np.linalg.norm(np.gradient(pos, self.dt_s, axis=0), axis=1)
         else:
             feed = tr.feed_mm_s
         # s(t) from the constant-jerk pieces can step back by rounding (1e-14 mm) where a
@@ -277,6 +280,8 @@ class Evaluator:
         self.measured_speed = (measured.speed_mm_s(self.scales.speed_window_s) if self.derived
                                else measured.speed_mm_s())
         self.n_evals = 0
+        self.n_computed = 0
+        self._gaps: dict = {}
 
     def model_trace(self, model: Model) -> ModelTrace:
         """The model trace, with its speed through the same operator as the measured speed."""
@@ -300,9 +305,17 @@ class Evaluator:
     def evaluate(self, model: Model, *, full: bool = False):
         """``GapMetrics`` of ``model`` (and, with ``full``, the alignment and model trace)."""
         self.n_evals += 1
+        if not full and model in self._gaps:
+            # the searches of a diagnosis meet the same model again (a grid point of one
+            # effect's fit on the same parent, the parent itself): its gap is known
+            return self._gaps[model]
+        self.n_computed += 1
         mt = self.model_trace(model)
         al = self.align(mt)
         m = gap_metrics(al, mt, self.scales)
+        if len(self._gaps) >= MAX_REMEMBERED:
+            self._gaps.pop(next(iter(self._gaps)))
+        self._gaps[model] = m
         return (m, al, mt) if full else m
 
 
@@ -551,7 +564,7 @@ def _combined(chosen, params, fit: EffectFit, gap_before, n_evals: int,
 
 def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, base: Model, *,
                    max_effects: int = 4, n_full: int = 2, width: int = 1,
-                   n_partners: int = 1) -> EffectFit | None:
+                   n_partners: int = 1, max_structures: int = 2) -> EffectFit | None:
     """Combined model by forward selection with a small beam: start from the best single fit;
     at each step, for each model kept so far, screen every candidate it lacks on top of it
     with a coarse fit (grids only, :func:`~ncsim.gap.fit.fit_values`), fit the ``n_full`` best
@@ -560,18 +573,18 @@ def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, base: Model
     ``COMBINE_MIN_GAIN``. A discrete choice that does not pay off alone is tried once more
     together with the ``n_partners`` best other candidates: continuous path against exact
     stop only shows once the ramps that shape the corners are fitted too. The ``width`` best
-    children go on, and with them the best child of every structural hypothesis (the discrete
-    choices it makes, e.g. G60 or G64), so that a first choice that fits a little better does
-    not lock the others out. Candidates whose parameters changed nothing at all in their
-    single fit are left out (they do not act on this trace), unless they make a discrete choice.
+    children go on, and with them the best child of each of the ``max_structures`` best other
+    structural hypotheses (the discrete choices it makes, e.g. G60 or G64), so that a first
+    choice that fits a little better does not lock the others out. Candidates whose
+    parameters changed nothing at all in their single fit are left out (they do not act on
+    this trace: a compressor on a program without short blocks, every choice the same).
     The best model seen is returned, without effects that no longer matter in it
     (:func:`_prune`, against the ``base`` model)."""
     if not fits or fits[0].shrink_percent <= 0:
         return None
     t0 = time.perf_counter()
     n0 = evaluator.n_evals
-    names = [f.effect for f in fits
-             if f.sensitive or any(p.kind == "choice" for p in get_effect(f.effect).params)]
+    names = [f.effect for f in fits if f.sensitive]
     # a node: (fit of its model, the effects in it, their parameters)
     beam = [(fits[0], (fits[0].effect,), {fits[0].effect: fits[0].params})]
     best = beam[0]
@@ -596,8 +609,13 @@ def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, base: Model
                             key=lambda fv: fv[0].gap_after.gap)
             plain = [f.effect for f, v in screen if not v][:n_partners]
             for f, v in screen[:n_full] + [fv for fv in screen[n_full:] if fv[1]]:
-                child = _extend(evaluator, node, f.effect, v)
-                keep(child, current.gap_after.gap)
+                if v and (f, v) not in screen[:n_full] and f.gap_after.gap >= current.gap_after.gap:
+                    # a choice whose screen does not shrink the gap at all: its fit alone
+                    # would not pay either; it goes on to its partners as screened
+                    child = (f, chosen + (f.effect,), {**params, f.effect: f.params})
+                else:
+                    child = _extend(evaluator, node, f.effect, v)
+                    keep(child, current.gap_after.gap)
                 if v and child[0].gap_after.gap >= current.gap_after.gap * (1.0 - COMBINE_MIN_GAIN) \
                         and len(chosen) + 2 <= max_effects:
                     for partner in plain:
@@ -610,7 +628,7 @@ def forward_select(evaluator, fits: Sequence[EffectFit], gap_before, base: Model
         seen = {_structure(n[1], n[2]) for n in beam}
         for n in ranked[width:]:
             sig = _structure(n[1], n[2])
-            if sig not in seen:
+            if sig not in seen and len(beam) < width + max_structures:
                 seen.add(sig)
                 beam.append(n)
         # only the children that go on are re-fitted as a whole (the costly part)
@@ -630,13 +648,7 @@ def _prune(evaluator, node, base: Model):
     for name in list(chosen):
         if len(chosen) == 1:
             break
-        e = get_effect(name)
-        if e.kind == "trace" and not e.is_active(base):
-            without = e.remove(fit.model)
-        elif e.kind == "planner" and not e.is_active(base) and e.option is not None:
-            without = e.remove(fit.model)
-        else:
-            without = e.apply(fit.model, e.check(e.current(base)))
+        without = get_effect(name).without(fit.model, base)
         g = evaluator.evaluate(without)
         if g.gap <= fit.gap_after.gap * (1.0 + COMBINE_MIN_GAIN):
             fit = replace(fit, model=without, gap_after=g)
@@ -649,15 +661,18 @@ def _extend(evaluator, node, effect: str, fixed: Mapping):
     """The node with ``effect`` added (its discrete choices ``fixed``), fitted, and the
     effects already in re-fitted."""
     current, chosen, params = node
+    # one coordinate sweep: the children that go on are back-fitted (_backfit_node)
     trial = fit_effect(evaluator, current.model, effect, gap_before=current.gap_after, fixed=fixed,
-                       polish=False)
+                       polish=False, sweeps=1)
     return trial, chosen + (effect,), {**params, effect: trial.params}
 
 
 def _backfit_node(evaluator, node):
-    """A node with all but its last effect re-fitted on top of the others (:func:`_backfit`)."""
+    """A node with its effects re-fitted one at a time on top of the others
+    (:func:`_backfit`): first those already in, then the last one added, whose fit in
+    :func:`_extend` was a single coordinate sweep."""
     fit, chosen, params = node
-    fit, params = _backfit(evaluator, fit, chosen[:-1], params, fit.gap_before)
+    fit, params = _backfit(evaluator, fit, chosen, params, fit.gap_before)
     return fit, chosen, params
 
 
@@ -673,7 +688,7 @@ def _backfit(evaluator, trial: EffectFit, chosen, params, gap_before):
     for name in chosen:
         fixed = {p.name: params[name][p.name] for p in get_effect(name).params if p.kind == "choice"}
         refit = fit_effect(evaluator, current.model, name, gap_before=gap_before, fixed=fixed,
-                           polish=False)
+                           polish=False, sweeps=1)
         if refit.gap_after.gap < current.gap_after.gap:
             current = refit
             params[name] = refit.params

@@ -215,12 +215,44 @@ def sample_mean_mm(t_s: np.ndarray, pos_mm: np.ndarray, samples: int,
     n = int(samples)
     if n <= 1 or len(t) < 2:
         return x.copy()
+    shifts = _grid_shifts(t, n, raw_period_s)
+    if shifts is not None:
+        return _shifted_mean(x, shifts)
     out = np.zeros_like(x)
     for j in range(n):
         tq = t + (j - 0.5 * (n - 1)) * raw_period_s
         for k in range(x.shape[1]):
             out[:, k] += np.interp(tq, t, x[:, k])
     return out / n
+
+
+def _grid_shifts(t: np.ndarray, n: int, raw_period_s: float) -> np.ndarray | None:
+    """The offsets ``(j - (N - 1)/2) h`` of :func:`sample_mean_mm` in HALF steps of the grid
+    ``t`` when ``t`` is uniform and every offset falls on a grid point or midway between two
+    (the model grid of 2 ms and the 500 Hz raw period); None otherwise."""
+    dt = (t[-1] - t[0]) / (len(t) - 1)
+    if dt <= 0 or abs(t[1] - t[0] - dt) > 1e-9 * dt or abs(t[len(t) // 2] - t[0] - (len(t) // 2) * dt) > 1e-6 * dt:
+        return None
+    half = 2.0 * (np.arange(n) - 0.5 * (n - 1)) * raw_period_s / dt
+    shifts = np.round(half)
+    return shifts.astype(np.int64) if np.all(np.abs(half - shifts) < 1e-9) else None
+
+
+def _shifted_mean(x: np.ndarray, half_shifts: np.ndarray) -> np.ndarray:
+    """``mean_j x(i + half_shifts[j] / 2)`` on the grid, with ``x`` linear between its points
+    and held at its ends (:func:`sample_mean_mm` without interpolating: a point midway between
+    two samples is their mean)."""
+    m = len(x)
+    mid = 0.5 * (x[:-1] + x[1:])                  # x(i + 1/2)
+    pad = int(np.max(np.abs(half_shifts))) // 2 + 1
+    xp = np.concatenate([np.repeat(x[:1], pad, axis=0), x, np.repeat(x[-1:], pad, axis=0)])
+    mp = np.concatenate([np.repeat(x[:1], pad, axis=0), mid, np.repeat(x[-1:], pad + 1, axis=0)])
+    out = np.zeros_like(x)
+    for h in half_shifts:
+        k, odd = divmod(int(h), 2)                # x(i + k) or x(i + k + 1/2)
+        src = mp if odd else xp
+        out += src[pad + k: pad + k + m]
+    return out / len(half_shifts)
 
 
 def corner_jumps_mm_s(accel_mm_s2, overload_factor, ipo_cycle_s: float) -> np.ndarray:
@@ -349,6 +381,13 @@ class Effect:
 
     def apply_planner(self, machine: MachineSpec, options: ModelOptions, values):
         return self.setting.set(machine, values[self.params[0].name]), self.switched_on(options)
+
+    def without(self, model: Model, base: Model) -> Model:
+        """``model`` with this effect as in ``base`` (a combined model pruned): switched off
+        or removed when ``base`` lacks it, else at ``base``'s values."""
+        if not self.is_active(base) and (self.kind == "trace" or self.option is not None):
+            return self.remove(model)
+        return self.apply(model, self.check(self.current(base)))
 
     def switched_on(self, options: ModelOptions) -> ModelOptions:
         """The planner options with this effect's switch on (a setting without one: as they are)."""
@@ -509,6 +548,71 @@ class CornerJump(MachineValue):
         return _with_jumps(machine, v["corner_jump_mm_s"] * ratio), options
 
 
+#: the X-axis jerk (MD32431 $MA_MAX_AX_JERK), parameter of corner_law
+X_AXIS_JERK = XAxisSetting("max_jerk_mm_s3", mm_s3_to_m_s3, m_s3_to_mm_s3)
+
+
+def continuous_path(machine: MachineSpec) -> MachineSpec:
+    """The machine running continuous path (G64) where a program sets no path mode: the
+    group-10 reset value (MD20150 $MC_GCODE_RESET_VALUES) G64 unless it already is a G64x, and
+    the stop in the exact-stop window at G0<->G1 changes (MD20552 = 1), as
+    :class:`ResetPathMode`'s G64 hypothesis, the settle time held."""
+    if machine.ncu.reset_path_mode != 60:
+        return machine
+    return machine.with_ncu(reset_path_mode=64, exact_pos_mode_g0_to_g1=1)
+
+
+def path_jerk_at_least(machine: MachineSpec, jerk_mm_s3: float) -> MachineSpec:
+    """The machine whose NCU path jerk (J_tcurv = J_curv r_jct, paper eq. 10; cf. MD20600
+    $MC_MAX_PATH_JERK) is at least ``jerk_mm_s3``: a ramp jerk fitted on the lines of a
+    recording is the path jerk there, so the NCU's limit cannot be below it."""
+    ncu = machine.ncu
+    if ncu.tangential_jerk_mm_s3 >= jerk_mm_s3:
+        return machine
+    return machine.with_ncu(curvilinear_jerk_mm_s3=jerk_mm_s3 / ncu.tangential_jerk_share)
+
+
+@dataclass(frozen=True)
+class CornerLaw(Effect):
+    """The G64 corner law of a machine: acceleration mode, axis velocity jump and ramp jerk
+    fitted together (see its ``meaning``). Sets continuous path as the reset mode
+    (:func:`continuous_path`), so a model with it plans on the program interpreted again."""
+
+    def is_active(self, model):
+        return model.options.accel_mode is not None
+
+    def current(self, model):
+        mode = {SOFT: "SOFT", BRISK: "BRISK"}.get(model.options.accel_mode, "SOFT")
+        return {"mode": mode, "corner_jump_mm_s": float(_jumps(model.machine)[0]),
+                "ramp_jerk_m_s3": X_AXIS_JERK.get(model.machine)}
+
+    def remove(self, model):
+        return replace(model, options=replace(model.options, accel_mode=None))
+
+    def without(self, model, base):
+        """Every value it sets back at ``base``'s: the mode, the reset path mode and its
+        G0<->G1 window, the axis jerks and jumps, the NCU path jerk."""
+        b, m = base.machine, model.machine
+        m = m.with_ncu(reset_path_mode=b.ncu.reset_path_mode,
+                       exact_pos_mode_g0_to_g1=b.ncu.exact_pos_mode_g0_to_g1,
+                       curvilinear_jerk_mm_s3=b.ncu.curvilinear_jerk_mm_s3)
+        m = m.with_axes(max_jerk_mm_s3=np.array(b.max_jerk_mm_s3),
+                        max_accel_ovl_factor=np.array(b.max_accel_ovl_factor))
+        return replace(model, machine=m,
+                       options=replace(model.options, accel_mode=base.options.accel_mode))
+
+    def apply_planner(self, machine, options, v):
+        m = continuous_path(machine)
+        old = np.array(m.max_jerk_mm_s3, dtype=np.float64)
+        x = m_s3_to_mm_s3(v["ramp_jerk_m_s3"])
+        # the plane's axes make the corners: X at the value, Y at its ratio to X, Z held
+        m = m.with_axes(max_jerk_mm_s3=np.array([x, x * old[1] / old[0], old[2]]))
+        m = path_jerk_at_least(m, float(np.max(m.max_jerk_mm_s3)))
+        m, options = EFFECTS["corner_jump"].apply_planner(m, options, v)
+        return m, replace(options, accel_mode=ACCEL_MODE_CHOICES[v["mode"]],
+                          jerk_limited_ramps=True)
+
+
 #: the group-30 values the compressor effect chooses among (COMPSURF is simulated as COMPCAD)
 COMPRESSOR_CHOICES = ("COMPOF", "COMPON", "COMPCURV", "COMPCAD")
 
@@ -663,6 +767,31 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
         (Param("corner_jump_mm_s", "mm/s", 0.1, 200.0, "velocity jump the X axis may make at a "
                "corner (machine file: max_accel_ovl_factor = 1 + jump / (A t_IPO) per axis, "
                "MD32310)"),)),
+    CornerLaw(
+        "corner_law", "corner law: acceleration mode, G64 velocity jump and ramp jerk together",
+        "How a machine in continuous-path mode (G64) crosses a corner, from the corners of a "
+        "recording: the feed drops to the corner velocity V = min_i jump_i / |t2_i - t1_i| "
+        "(840D B1 \"continuous-path mode\", MD32310 $MA_MAX_ACCEL_OVL_FACTOR: the axis velocity "
+        "jump A_i (f_i - 1) t_IPO) on a ramp shaped by the acceleration mode (MD20150 "
+        "$MC_GCODE_RESET_VALUES group 21, SOFT or BRISK; B2 \"acceleration\"): SOFT at the path "
+        "jerk of the plane's axes (MD32431 $MA_MAX_AX_JERK of X and Y along the block; the NCU's "
+        "path jerk is raised to it where lower), BRISK at the full acceleration (the jerk A / t_IPO). A "
+        "corner of deflection theta costs about 2 (v - V)^1.5 / (v sqrt(J)) under SOFT and (v - V)^2 / (A v) under "
+        "BRISK, so the losses of corners of two angles tell the jump from the jerk. The three "
+        "are fitted together because each alone is degenerate with the others (a slower ramp "
+        "and a lower corner velocity lose the same time at one corner). Premise: continuous "
+        "path where the program sets none (MD20150 group 10 G64, G0<->G1 stops in the "
+        "window, MD20552 = 1). The jerk at curvature jumps (MD32432 $MA_PATH_TRANS_JERK_LIM) "
+        "is the transition effect's.",
+        (Param("mode", "", 0, 0, "acceleration mode of the corner ramps (group-21 reset value, "
+               "MD20150)", kind="choice", choices=("SOFT", "BRISK")),
+         Param("corner_jump_mm_s", "mm/s", 0.1, 200.0, "velocity jump the X axis may make at a "
+               "G64 corner (MD32310 = 1 + jump / (A t_IPO); Y and Z keep their ratio to X)"),
+         Param("ramp_jerk_m_s3", "m/s^3", 0.3, 200.0, "maximum X-axis jerk J_mx of SOFT ramps "
+               "(MD32431 $MA_MAX_AX_JERK; Y keeps its ratio to X, Z is held, and the NCU path "
+               "jerk J_curv r_jct, cf. MD20600, is raised to the largest axis jerk where lower; "
+               "no effect under BRISK)")),
+        option="accel_mode"),
     ServoLag(
         "servo_lag", "servo lag: position loop Kv with or without feed forward",
         "The axes follow the set point through a P position loop of gain Kv with velocity "
@@ -712,7 +841,7 @@ TRACE_EFFECTS = tuple(n for n, e in EFFECTS.items() if e.kind == "trace" and not
 #: what can shape a recorded command: the planner effects and the recorder's own filter
 COMMAND_EFFECTS = PLANNER_EFFECTS + ("recorder",)
 #: effects that change how the program is interpreted (they need the program, not a path)
-REINTERPRETING = ("reset_mode", "compressor")
+REINTERPRETING = ("reset_mode", "compressor", "corner_law")
 
 
 def get_effect(name: str) -> Effect:

@@ -161,12 +161,14 @@ def _int_search(objective, p, x0: int | None, coarse: bool = False):
 
 
 def fit_values(objective, params: Sequence, start: Mapping[str, object], free: Iterable[str],
-               coarse: bool = False, polish: bool = True):
+               coarse: bool = False, polish: bool = True, sweeps: int | None = None):
     """Minimise ``objective(values)`` over the ``free`` parameters (others held at
     ``start``). Choices are enumerated; for each, integers are scanned and floats searched one
     at a time (coordinate search, two sweeps when more than one is free). ``coarse``: one sweep
     of the grids alone, no refinement (a cheap screen of many candidates). ``polish``: the
-    Nelder-Mead polish of two or more floats (off: the coordinate search alone)."""
+    Nelder-Mead polish of two or more floats (off: the coordinate search alone). ``sweeps``:
+    the coordinate sweeps when several parameters are free (default two; one where a later
+    re-fit refines, as the forward selection's back-fit does)."""
     free = [p for p in params if p.name in set(free)]
     choices = [p for p in free if p.kind == "choice"]
     numeric = [p for p in free if p.kind != "choice"]
@@ -177,18 +179,28 @@ def fit_values(objective, params: Sequence, start: Mapping[str, object], free: I
     for combo in combos:
         vals = dict(start, **combo)
         f = None
-        sweeps = 2 if len(numeric) > 1 and not coarse else 1
-        for _ in range(sweeps):
+        n_sweeps = (2 if sweeps is None else sweeps) if len(numeric) > 1 and not coarse else 1
+        # a parameter whose every value left the same objective in a sweep changes nothing
+        # under this combination (a SOFT jerk under BRISK): not searched again nor polished
+        inert: set[str] = set()
+        for _ in range(n_sweeps):
             for p in numeric:
-                def obj1(x, p=p, vals=vals):
-                    return objective(dict(vals, **{p.name: x}))
+                if p.name in inert:
+                    continue
+                seen: list[float] = []
+
+                def obj1(x, p=p, vals=vals, seen=seen):
+                    seen.append(objective(dict(vals, **{p.name: x})))
+                    return seen[-1]
                 if p.kind == "int":
                     x, f = _int_search(obj1, p, vals.get(p.name), coarse=coarse)
                 else:
                     x0 = vals.get(p.name)
                     x, f = _float_search(obj1, p, None if x0 is None else float(x0), coarse=coarse)
                 vals[p.name] = x
-        floats = [p for p in numeric if p.kind == "float"]
+                if len(seen) > 1 and max(seen) == min(seen):
+                    inert.add(p.name)
+        floats = [p for p in numeric if p.kind == "float" and p.name not in inert]
         if len(floats) >= 2 and not coarse and polish:
             vals, f = _polish(objective, floats, vals)
         if f is None:
@@ -215,14 +227,16 @@ def _polish(objective, floats, vals):
         return out
 
     x0 = to_x(vals)
+    f0 = objective(vals)
     span = np.array([0.1 if p.log else 0.1 * (p.high - p.low) for p in floats])
     simplex = np.vstack([x0] + [x0 + np.eye(len(floats))[i] * span[i] for i in range(len(floats))])
+    # converged when the simplex spans 0.1 % of a log-scaled value (a quarter of the 1-D
+    # search's tolerance) and its objectives agree to 1e-6 of the objective
     res = minimize(lambda x: objective(to_vals(x)), x0, method="Nelder-Mead",
-                   options={"initial_simplex": simplex, "xatol": 1e-4, "fatol": 1e-10,
-                            "maxfev": 300})
+                   options={"initial_simplex": simplex, "xatol": 1e-3,
+                            "fatol": 1e-6 * max(abs(f0), 1e-300), "maxfev": 300})
     best = to_vals(res.x)
     f = objective(best)
-    f0 = objective(vals)
     return (best, f) if f <= f0 else (vals, f0)
 
 
@@ -242,7 +256,8 @@ def free_params(effect, command: bool) -> list[str]:
 
 def fit_effect(evaluator, base: Model, effect_name: str, *,
                gap_before=None, command: bool = False, coarse: bool = False,
-               fixed: Mapping[str, object] | None = None, polish: bool = True) -> EffectFit:
+               fixed: Mapping[str, object] | None = None, polish: bool = True,
+               sweeps: int | None = None) -> EffectFit:
     """Add (or re-fit) one effect on ``base`` and fit its parameters to minimise the gap.
 
     ``evaluator`` is anything with ``evaluate(model)`` returning an object with a ``gap``
@@ -265,7 +280,8 @@ def fit_effect(evaluator, base: Model, effect_name: str, *,
         return cache[key]
 
     free = [n for n in free_params(effect, command) if n not in (fixed or {})]
-    values, _ = fit_values(objective, effect.params, start, free, coarse=coarse, polish=polish)
+    values, _ = fit_values(objective, effect.params, start, free, coarse=coarse, polish=polish,
+                           sweeps=sweeps)
     model = effect.apply(base, values)
     after = evaluator.evaluate(model)
     seen = np.array(list(cache.values()))

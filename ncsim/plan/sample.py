@@ -152,8 +152,16 @@ def frenet_at(coef: np.ndarray, k: np.ndarray, s_local_mm: np.ndarray):
     at ``s_local_mm`` (m,) from gathered :func:`segment_coefficients` columns ``coef`` (12, m)
     and ``k`` (m,)."""
     phi = k * s_local_mm
-    c = np.cos(phi)
-    sn = np.sin(phi)
+    arc = k != 0.0
+    if arc.all():
+        c = np.cos(phi)
+        sn = np.sin(phi)
+    else:                            # lines: phi = 0, no trigonometry for their samples
+        c = np.ones_like(phi)
+        sn = np.zeros_like(phi)
+        if arc.any():
+            c[arc] = np.cos(phi[arc])
+            sn[arc] = np.sin(phi[arc])
     U, V, W = coef[3:6], coef[6:9], coef[9:12]
     radial = c * U + sn * V          # r (cos u + sin v)
     along = c * V - sn * U           # r (-sin u + cos v)
