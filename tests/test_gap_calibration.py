@@ -361,3 +361,34 @@ def test_a_combined_model_keeps_the_override_and_names_the_axis_velocity(tmp_pat
     assert spec.ncu.transition_time_s * 1e3 == pytest.approx(2.0, rel=0.25)
     assert list(spec.max_velocity_mm_s) == list(m.max_velocity_mm_s)
     assert spec.warnings == ()
+
+
+@pytest.mark.parametrize("effect, values", [
+    ("corner_law", {"mode": "SOFT", "corner_jump_mm_s": 1.6, "ramp_jerk_m_s3": 20.3}),
+    ("accel_mode", {"mode": "SOFT", "axis_accel_m_s2": 2.0})])
+def test_a_fitted_acceleration_mode_goes_into_the_written_file(repo_root, effect, values):
+    """The corner law's SOFT (the KIT Notch's) is the group-21 reset value ``[ncu]
+    reset_accel_mode`` of the written file (MD20150): ``ncsim run`` on that file plans a
+    program that selects no mode as the fitted model does (forced SOFT), and not as BRISK,
+    the reset value of the source file."""
+    from dataclasses import replace
+
+    from ncsim.gap.effects import EFFECTS, Model, corrected_machine
+    from ncsim.path import BRISK, SOFT
+    from ncsim.pipeline import simulate
+
+    text = "G17 G90 G64\nG1 X20 F6000\nY20\nX0 Y0\nM30\n"           # no BRISK/SOFT/DRIVE
+    source = load_machine(repo_root / "machines" / "dmc60h.toml")
+    assert source.ncu.reset_accel_mode == BRISK                     # as delivered
+    model = EFFECTS[effect].apply(Model(machine=source), values)
+    fitted = simulate("p.mpf", model.machine, model.options, text=text).cycle_time_s
+    file = repo_root / "machines" / "dmc60h.toml"
+    changes = machine_changes(source, corrected_machine(model), (effect,))
+    mode = [c for c in changes if c.datum.key == "reset_accel_mode"]
+    assert len(mode) == 1 and (mode[0].old, mode[0].new) == ("BRISK", "SOFT")
+    assert "MD20150" in mode[0].datum.md and mode[0].effects == (effect,)
+    written = load_machine_text(edit_machine_text(file.read_text(), changes, ["fit"]))
+    assert written.ncu.reset_accel_mode == SOFT
+    assert simulate("p.mpf", written, text=text).cycle_time_s == pytest.approx(fitted, rel=1e-12)
+    brisk = simulate("p.mpf", model.machine, replace(model.options, accel_mode=BRISK), text=text)
+    assert abs(brisk.cycle_time_s - fitted) > 1e-3                 # the mode matters here

@@ -81,13 +81,14 @@ def test_overrides_scale_g0_and_f(mikron):
 
 def test_machine_file_keys_round_trip_and_reject_bad_values(mikron):
     m = mikron.with_ncu(reset_path_mode=64, exact_pos_mode_g0_to_g1=1, rapid_override=0.1,
-                        feed_override=0.95)
+                        feed_override=0.95, reset_accel_mode=0)     # 0: SOFT (group 21)
     import tomllib
     back = machine_from_dict(tomllib.loads(dump_machine_toml(m)))
     assert back.ncu == m.ncu
     data = tomllib.loads(dump_machine_toml(mikron))
     for key, value, words in (("reset_path_mode", "G61", "must be one of G60, G64"),
                               ("reset_path_mode", 64, "must be a string"),
+                              ("reset_accel_mode", "SMOOTH", "must be one of BRISK, SOFT, DRIVE"),
                               ("exact_pos_mode_g0_to_g1", 4, "must be an integer from 0 to 3"),
                               ("rapid_override_percent", 0, "must be between 0.001 and 200 %"),
                               ("feed_override_percent", 250, "must be between 0.001 and 200 %")):

@@ -36,7 +36,7 @@ from typing import Callable, Sequence
 
 from ncsim.errors import UsageError
 from ncsim.gap.effects import EFFECTS, get_effect
-from ncsim.machine import AXIS_NAMES, MachineSpec, path_mode_name
+from ncsim.machine import AXIS_NAMES, MachineSpec, accel_mode_name, path_mode_name
 from ncsim.path import COMPRESSOR_NAMES
 from ncsim.units import (mm_s2_to_m_s2, mm_s3_to_m_s3, mm_s_to_m_min, s2_to_um_per_m_s2,
                          s_to_ms, share_to_percent)
@@ -117,6 +117,8 @@ DATA: tuple[Datum, ...] = tuple(
          "(no machine datum)", "ms", lambda n: s_to_ms(n.exact_stop_fine_settle_s), ("reset_mode",)),
     _ncu("exact_pos_mode_g0_to_g1", "MD20552 $MC_EXACT_POS_MODE_G0_TO_G1", "",
          lambda n: n.exact_pos_mode_g0_to_g1, ("reset_mode", "corner_law")),
+    _ncu("reset_accel_mode", "MD20150 $MC_GCODE_RESET_VALUES (group 21)", "",
+         lambda n: accel_mode_name(n.reset_accel_mode), ("accel_mode", "corner_law")),
     _ncu("reset_compressor", "MD20150 $MC_GCODE_RESET_VALUES (group 30)", "",
          lambda n: COMPRESSOR_NAMES[n.reset_compressor], ("compressor",)),
     _ncu("rapid_override_percent", "rapid override on the operator panel (no machine datum)",

@@ -907,8 +907,12 @@ def jsonable(values: Mapping[str, object]) -> dict:
 def corrected_machine(model: Model) -> MachineSpec:
     """The machine file of a (fitted) model: planner parameters are already in the machine;
     a fitted Kv goes to every axis's ``position_gain_1_s``, a compliance to ``[structure]``.
-    (The acceleration mode, the feed-forward weight and a delay have no machine-file key.)"""
+    A forced acceleration mode (``accel_mode``, ``corner_law``) becomes the group-21 reset
+    value ``[ncu] reset_accel_mode`` (MD20150), which holds where the program selects none.
+    (The feed-forward weight and a delay have no machine-file key.)"""
     m = model.machine
+    if model.options.accel_mode is not None:
+        m = m.with_ncu(reset_accel_mode=int(model.options.accel_mode))
     lag = model.post_values("servo_lag")
     if lag is not None:
         m = m.with_axes(position_gain_1_s=float(lag["kv_1_s"]))

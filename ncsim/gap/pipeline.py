@@ -249,9 +249,10 @@ class GapResult:
 
 def _machine_file_notes(name: str, params: Mapping) -> list[str]:
     """What a fitted effect sets that a machine file has no key for."""
-    if name == "accel_mode":
-        return [f"accel_mode {params.get('mode')}: the acceleration mode is set by the program "
-                "(SOFT/BRISK), not by the machine file"]
+    if name in ("accel_mode", "corner_law"):
+        return [f"{name} {params.get('mode')}: written as [ncu] reset_accel_mode (MD20150 group "
+                "21), which holds where the program selects none; a block that programs "
+                "SOFT/BRISK/DRIVE keeps its own"]
     if name == "servo_lag" and float(params.get("ffw_weight", 0.0)) > 0:
         return [f"servo_lag ffw_weight {float(params['ffw_weight']):.3g}: no machine-file key"]
     if name == "recorder":

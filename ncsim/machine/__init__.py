@@ -50,6 +50,8 @@ MACHINE_TYPES = {"milling": {"reset_plane": 17, "reset_diameter_mode": 0},
                  "turning": {"reset_plane": 18, "reset_diameter_mode": 1}}
 PLANES = {"G17": 17, "G18": 18, "G19": 19}
 DIAMETER_MODES = {"DIAMOF": 0, "DIAMON": 1, "DIAM90": 2}
+#: G group 21, the acceleration profile (840D B2 "Acceleration": BRISK, SOFT, DRIVE)
+ACCEL_MODES = {"BRISK": BRISK, "SOFT": SOFT, "DRIVE": DRIVE}
 
 
 @dataclass(frozen=True, slots=True)
@@ -93,6 +95,7 @@ class NcuSpec:
     crit_spline_angle_rad: float = deg_to_rad(36.0)  # SD42470 $SC_CRIT_SPLINE_ANGLE (B1 recommends 36 deg)
     reset_path_mode: int = 60                 # MD20150 $MC_GCODE_RESET_VALUES, group 10 (60, 64, 641..645)
     reset_compressor: int = COMPOF            # MD20150 $MC_GCODE_RESET_VALUES, group 30 (COMPOF..COMPSURF)
+    reset_accel_mode: int = BRISK             # MD20150 $MC_GCODE_RESET_VALUES, group 21 (BRISK as delivered)
     exact_pos_mode_g0_to_g1: int = 0          # MD20552: stop window at G0<->G1 changes (0 none, 1 G601, 2 G602, 3 G603)
     rapid_override: float = 1.0               # rapid-traverse override in force (share of the G0 velocity)
     feed_override: float = 1.0                # path-feed override in force (share of the programmed F)
@@ -329,7 +332,7 @@ _NCU_KEYS: tuple[tuple[str, str, bool, Callable, Callable], ...] = (
 #: [ncu] keys that are not plain numbers (read in machine_from_dict)
 _NCU_OTHER_KEYS = ("smoothing_mode", "ignore_ovl_factor_for_adis", "reset_path_mode",
                    "exact_pos_mode_g0_to_g1", "reset_compressor", "reset_plane",
-                   "reset_diameter_mode", "diameter_axis")
+                   "reset_diameter_mode", "diameter_axis", "reset_accel_mode")
 #: the key of earlier versions that MD32310 replaced: the G64 velocity jump was
 #: ``corner_velocity_jump_factor`` x A t_IPO, it is A (max_accel_ovl_factor - 1) t_IPO per axis
 _OLD_CORNER_KEY = "corner_velocity_jump_factor"
@@ -441,6 +444,7 @@ def machine_from_dict(data: dict[str, Any], file: str = "<machine>") -> MachineS
             c.add("ncu.reset_compressor", f"must be one of {', '.join(COMPRESSOR_CODES)}, got {comp!r}")
     ncu_values.update(MACHINE_TYPES[kind])
     for key, choices in (("reset_plane", PLANES), ("reset_diameter_mode", DIAMETER_MODES),
+                         ("reset_accel_mode", ACCEL_MODES),
                          ("diameter_axis", {a: i for i, a in enumerate(AXIS_NAMES)})):
         text = c.string(ntab, "ncu", key)
         if text is not None:
@@ -604,6 +608,7 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
               f"crit_spline_angle_deg = {_f(rad_to_deg(n.crit_spline_angle_rad))}  # SD42470",
               f"reset_path_mode = {_q(path_mode_name(n.reset_path_mode))}  # MD20150 $MC_GCODE_RESET_VALUES (group 10)",
               f"reset_compressor = {_q(COMPRESSOR_NAMES[n.reset_compressor])}  # MD20150 $MC_GCODE_RESET_VALUES (group 30)",
+              f"reset_accel_mode = {_q(_name_of(ACCEL_MODES, n.reset_accel_mode))}  # MD20150 $MC_GCODE_RESET_VALUES (group 21)",
               f"exact_pos_mode_g0_to_g1 = {n.exact_pos_mode_g0_to_g1}  # MD20552 $MC_EXACT_POS_MODE_G0_TO_G1",
               f"rapid_override_percent = {_f(share_to_percent(n.rapid_override))}  # rapid-traverse override in force",
               f"feed_override_percent = {_f(share_to_percent(n.feed_override))}  # feed override in force",
@@ -642,6 +647,11 @@ def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
 def path_mode_name(code: int) -> str:
     """``60`` -> ``"G60"`` (a group-10 code as the program writes it)."""
     return f"G{int(code)}"
+
+
+def accel_mode_name(code: int) -> str:
+    """``SOFT`` (a group-21 code, :data:`ACCEL_MODES`, by its name)."""
+    return _name_of(ACCEL_MODES, code)
 
 
 def _name_of(choices: dict, code: int) -> str:

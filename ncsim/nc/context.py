@@ -222,10 +222,11 @@ class InterpreterState:
         self.circle_const_mm = ncu.circle_error_const_mm if ncu else DEFAULT_CIRCLE_ERROR_CONST_MM
         self.circle_factor = ncu.circle_error_factor if ncu else DEFAULT_CIRCLE_ERROR_FACTOR
         # never replaced: collaborators keep a reference; groups 10 (path mode), 30
-        # (compressor), 6 (plane) and 29 (diameter programming) start at the machine's reset
-        # values (MD20150 $MC_GCODE_RESET_VALUES)
+        # (compressor), 6 (plane), 29 (diameter programming) and 21 (BRISK/SOFT/DRIVE) start
+        # at the machine's reset values (MD20150 $MC_GCODE_RESET_VALUES)
         self.st = (ModalState(cp_mode=ncu.reset_path_mode, compressor=ncu.reset_compressor,
-                              plane=ncu.reset_plane, diameter=ncu.reset_diameter_mode)
+                              plane=ncu.reset_plane, diameter=ncu.reset_diameter_mode,
+                              accel_mode=ncu.reset_accel_mode)
                    if ncu else ModalState())
         #: MD20100 $MC_DIAMETER_AX_DEF: the transverse axis (0 = X), :mod:`ncsim.nc.diameter`
         self.diameter_axis = ncu.diameter_axis if ncu else 0
