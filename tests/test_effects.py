@@ -8,9 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, Model, base_names, compliance_offset_mm,
-                           corrected_machine, delayed_mm, first_order_lag_coefficients,
-                           get_effect, make_base, servo_lag_mm)
+from ncsim.gap.closedforms import (compliance_offset_mm, delayed_mm, first_order_lag_coefficients,
+                                   servo_lag_mm)
+from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, Model, base_names, corrected_machine,
+                               get_effect, make_base)
 from ncsim.errors import UsageError
 from ncsim.nc.interpret import interpret_text
 from ncsim.machine import dump_machine_toml, load_machine

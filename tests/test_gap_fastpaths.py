@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ncsim.gap.effects import sample_mean_mm
+from ncsim.gap.closedforms import sample_mean_mm
 from ncsim.gap.measured import derived_speed_mm_s
 
 

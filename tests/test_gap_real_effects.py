@@ -16,9 +16,8 @@ import pytest
 
 from ncsim.errors import UsageError
 from ncsim.gap.diagnose import ModelCache, forward_select, interpretation_key, rank_fits
-from ncsim.gap.effects import (corner_jumps_mm_s, corrected_machine, get_effect, make_base,
-                               overload_factors_for,
-                               sample_mean_mm)
+from ncsim.gap.closedforms import corner_jumps_mm_s, overload_factors_for, sample_mean_mm
+from ncsim.gap.effects import corrected_machine, get_effect, make_base
 from ncsim.gap.fit import fit_effect
 from ncsim.gap.transitions import junction_loss_s, time_at_length_s
 from ncsim.gap.truth.plain import (PlainMachine, plan_plain, ramp_distance_mm, reachable_mm_s,

@@ -71,8 +71,8 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from ncsim.gap.align import AlignPhase, Alignment, align
-from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, RECORDER_RAW_PERIOD_S, REINTERPRETING,
-                               TRACE_EFFECTS, Model,
+from ncsim.gap.closedforms import RECORDER_RAW_PERIOD_S
+from ncsim.gap.effects import (EFFECTS, PLANNER_EFFECTS, REINTERPRETING, TRACE_EFFECTS, Model,
                                apply_trace_effects, corrected_machine, get_effect, make_base,
                                model_description)
 from ncsim.errors import UsageError

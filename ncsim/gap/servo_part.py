@@ -43,7 +43,8 @@ from typing import Callable, Sequence
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 
-from ncsim.gap.effects import EFFECTS, Model, jsonable, compliance_offset_mm, servo_lag_mm
+from ncsim.gap.closedforms import compliance_offset_mm, servo_lag_mm
+from ncsim.gap.effects import EFFECTS, Model, jsonable
 from ncsim.errors import UsageError
 from ncsim.gap.fit import fit_values, free_params
 from ncsim.gap.metrics import shrink_percent
