@@ -33,56 +33,29 @@ leaves it unchanged). The prediction is the same measure on the fitted model's s
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
+from ncsim.gap.truth.kit_notch import ORIGIN_MM, PASS1_S_MM, pass1_length_mm
+
 REPO = Path(__file__).resolve().parent.parent
 KIT = REPO.parent / "shared" / "data" / "real" / "kit-dmc60h-notch-sinumerik"
 PROGRAM = KIT / "AL_2007_T4_Notch_Normal.mpf"
 TRACE = KIT / "DMC60H_AL2007T4_Notch_Normal_1.csv"
 MACHINE = REPO / "machines" / "dmc60h.toml"
-ORIGIN_MM = np.array([-38.648045, 249.499981, 404.94])        # SOURCE.md "Coordinates"
 RECORDER_WINDOW_MS = 20.0                                       # 10 samples at 500 Hz
 CANDIDATES = ("rapid_override", "reset_mode", "corner_law")
 TOLERANCE_MS = 5.0
 
-# pass 1 in program coordinates (the program text): G0 Z10 -> Z-6 at (-10, 60), G1 X30,
-# G2 to (60, 30) about (30, 30), G1 Y10, G1 X40, G1 X-10 Y60
-PASS1_LENGTHS_MM = np.array([16.0, 40.0, 15.0 * math.pi, 20.0, 20.0, 50.0 * math.sqrt(2.0)])
-PASS1_S_MM = np.concatenate([[0.0], np.cumsum(PASS1_LENGTHS_MM)])
 #: the junctions of pass 1: name, deflection in degrees, line-fit windows (before, after) in s
 JUNCTIONS = (("G0->G1 stop", 90.0, ((0.2, 0.06), (0.12, 0.6))),
              ("line->arc (tangent)", 0.0, ((0.6, 0.12), (0.12, 0.6))),
              ("arc->line (tangent)", 0.0, ((0.6, 0.12), (0.12, 0.6))),
              ("90 deg corner", 90.0, ((0.6, 0.12), (0.12, 0.6))),
              ("135 deg corner", 45.0, ((0.6, 0.12), (0.12, 0.6))))
-
-
-def pass1_length_mm(q: np.ndarray) -> np.ndarray:
-    """Path length along pass 1 of program points ``q`` (n, 3): the nearest of its six pieces,
-    by hand from the program text (no ncsim geometry)."""
-    lines = [((-10.0, 60.0, 10.0), (-10.0, 60.0, -6.0), 0), ((-10.0, 60.0, -6.0), (30.0, 60.0, -6.0), 1),
-             ((60.0, 30.0, -6.0), (60.0, 10.0, -6.0), 3), ((60.0, 10.0, -6.0), (40.0, 10.0, -6.0), 4),
-             ((40.0, 10.0, -6.0), (-10.0, 60.0, -6.0), 5)]
-    dist = np.full((len(q), 6), np.inf)
-    along = np.zeros((len(q), 6))
-    for a, b, k in lines:
-        a, b = np.array(a), np.array(b)
-        u = (b - a) / np.linalg.norm(b - a)
-        w = np.clip((q - a) @ u, 0.0, np.linalg.norm(b - a))
-        dist[:, k] = np.linalg.norm(q - (a + w[:, None] * u), axis=1)
-        along[:, k] = w
-    ang = np.arctan2(q[:, 0] - 30.0, q[:, 1] - 30.0)              # 0 at (30, 60), pi/2 at (60, 30)
-    inside = (ang >= 0.0) & (ang <= 0.5 * math.pi)
-    dist[:, 2] = np.where(inside, np.hypot(np.hypot(q[:, 0] - 30.0, q[:, 1] - 30.0) - 30.0,
-                                           q[:, 2] + 6.0), np.inf)
-    along[:, 2] = 30.0 * ang
-    k = np.argmin(dist, axis=1)
-    return PASS1_S_MM[k] + along[np.arange(len(q)), k]
 
 
 def junction_losses_ms(t_s, s_mm) -> dict[str, float]:
