@@ -16,7 +16,7 @@ jerk to 2.01 m/min where 6 m/min is programmed)::
     >>> round(float(mm_s_to_m_min(trace.feed_mm_s.max())), 2)
     2.01
     >>> result = ncsim.diagnose(["programs/circle_r2p5_f6000.mpf"], "measured/paper_table3.toml",
-    ...                         effects=["ncu_path_jerk", "axis_jerk"])
+    ...                         "mikron", effects=["ncu_path_jerk", "axis_jerk"])
     >>> result.planner.best.effect
     'ncu_path_jerk'
 

@@ -198,7 +198,7 @@ def test_the_fuzz_reference_trace_is_diagnosed(shared):
 def test_progress_reports_every_stage(circle_case):
     prog, csv = circle_case
     calls = []
-    diagnose([prog], csv, effects=["ncu_path_jerk", "transition"], combine=True,
+    diagnose([prog], csv, "mikron", effects=["ncu_path_jerk", "transition"], combine=True,
              base="full-minus-ncu_path_jerk", progress=lambda *a: calls.append(a))
     names = [c[0] for c in calls]
     assert names[:3] == ["read", "interpret", "register"]

@@ -375,7 +375,7 @@ def register_trace(trace: MeasuredTrace, path, spec: MachineSpec,
 
 
 def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
-             machine: MachineSpec | str | FsPath = "mikron", *, fmt: str = "auto",
+             machine: MachineSpec | str | FsPath, *, fmt: str = "auto",
              columns: Mapping[str, str] | None = None, units: Mapping[str, str] | None = None,
              sample_period_s: float | None = None, base: str | None = None,
              effects: Sequence[str] | None = None, combine: bool = True,
