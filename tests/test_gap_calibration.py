@@ -60,20 +60,28 @@ SCOPE = ScopeConfig(period_s=4e-3, noise_um=0.5, quant_um=0.1, time_offset_s=0.2
                     pos_offset_mm=(0.0, 0.0, 0.0))
 
 
+def _at_a_tenth_of_the_rapid_rate(tmp, name, program, machine, effects: str):
+    """``program`` recorded on ``machine`` at a 10 % rapid override, diagnosed by ``ncsim gap``
+    against the MIKRON file with the candidates ``effects``, the calibrated file written:
+    ``(program, recording, written file, the JSON output)``."""
+    prog, csv = _record(tmp, name, program, machine,
+                        Case(index=0, effect="rapid_override",
+                             params={"rapid_override_percent": 10.0}, base="full",
+                             scope=SCOPE, lead_s=0.2, seed=3))
+    out = tmp / "calibrated.toml"
+    r = CliRunner().invoke(cli, ["gap", str(prog), "--machine", "mikron", "--measured", str(csv),
+                                 "--effects", effects, "--json", "--write-machine", str(out)])
+    assert r.exit_code == 0, r.output
+    return prog, csv, out, json.loads(r.stdout)
+
+
 @pytest.fixture(scope="module")
 def override_case(tmp_path_factory):
     """Recorded on the MIKRON at a 10 % rapid override, diagnosed against its file."""
     d = tmp_path_factory.mktemp("calib")
-    prog, csv = _record(d, "rapids", RAPIDS, load_machine("mikron"),
-                        Case(index=0, effect="rapid_override",
-                             params={"rapid_override_percent": 10.0}, base="full",
-                             scope=SCOPE, lead_s=0.2, seed=3))
-    out = d / "calibrated.toml"
-    r = CliRunner().invoke(cli, ["gap", str(prog), "--machine", "mikron", "--measured", str(csv),
-                                 "--effects", "axis_velocity,rapid_override",
-                                 "--json", "--write-machine", str(out)])
-    assert r.exit_code == 0, r.output
-    return d, prog, csv, out, json.loads(r.stdout)
+    prog, csv, out, data = _at_a_tenth_of_the_rapid_rate(
+        d, "rapids", RAPIDS, load_machine("mikron"), "axis_velocity,rapid_override")
+    return d, prog, csv, out, data
 
 
 def test_an_override_is_written_before_an_equally_good_axis_velocity(override_case):
@@ -342,17 +350,9 @@ def test_a_combined_model_keeps_the_override_and_names_the_axis_velocity(tmp_pat
     hypotheses the selection started from, and names MD32000 as the alternative."""
     from ncsim.units import ms_to_s
     m = load_machine("mikron")
-    prog, csv = _record(tmp_path, "spiral", SPIRAL_AND_RAPIDS,
-                        m.with_ncu(transition_time_s=ms_to_s(2.0)),
-                        Case(index=0, effect="rapid_override",
-                             params={"rapid_override_percent": 10.0}, base="full",
-                             scope=SCOPE, lead_s=0.2, seed=3))
-    out = tmp_path / "calibrated.toml"
-    r = CliRunner().invoke(cli, ["gap", str(prog), "--machine", "mikron", "--measured", str(csv),
-                                 "--effects", "axis_velocity,rapid_override,transition",
-                                 "--json", "--write-machine", str(out)])
-    assert r.exit_code == 0, r.output
-    data = json.loads(r.stdout)
+    _, _, out, data = _at_a_tenth_of_the_rapid_rate(
+        tmp_path, "spiral", SPIRAL_AND_RAPIDS, m.with_ncu(transition_time_s=ms_to_s(2.0)),
+        "axis_velocity,rapid_override,transition")
     comb = data["diagnosis"]["combined"]
     assert sorted(comb["effects"]) == ["rapid_override", "transition"]
     assert [a["effect"] for a in data["calibration"]["alternatives"]] == ["axis_velocity"]

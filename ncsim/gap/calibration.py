@@ -203,8 +203,7 @@ def machine_changes(old: MachineSpec, new: MachineSpec,
 WRITTEN_EFFECTS = frozenset(n for n, e in EFFECTS.items() if e.kind == "planner") \
     | {"servo_lag", "compliance"}
 #: parameters of written effects that have no machine-file key
-UNWRITTEN_PARAMS = frozenset({("servo_lag", "ffw_weight"), ("accel_mode", "mode"),
-                              ("corner_law", "mode")})
+UNWRITTEN_PARAMS = frozenset({("servo_lag", "ffw_weight")})
 
 
 @dataclass(frozen=True)

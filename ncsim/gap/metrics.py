@@ -167,20 +167,46 @@ def centred_mask(t_s: np.ndarray, window_s: float) -> np.ndarray:
     return (idx - first[piece] >= k) & (last[piece] - idx >= k)
 
 
-def gap_metrics(al: Alignment, mt, scales: GapScales) -> GapMetrics:
-    """Gap metrics of an alignment of a measured trace to a model trace."""
-    valid = al.valid
+@dataclass(frozen=True)
+class ComparedSamples:
+    """Which samples of an alignment a gap compares, and with what (:func:`compared_samples`).
+
+    ``model_speed`` (on the model's grid) is the model speed through the measured speed's
+    operator and ``v_model`` that at the measured samples; ``moving``: placed on the model path
+    and in motion in either (their feed and time errors count); ``unmatched``: in motion but
+    not placed (the model ended or started too early, or the alignment failed); ``outside_s``:
+    each sample's time outside the model's motion; ``span_s``: :func:`motion_span_s`."""
+
+    model_speed: np.ndarray
+    v_model: np.ndarray
+    moving: np.ndarray
+    unmatched: np.ndarray
+    outside_s: np.ndarray
+    span_s: tuple[float, float, float, float]
+
+
+def compared_samples(al: Alignment, mt, scales: GapScales) -> ComparedSamples:
+    """The samples :func:`gap_metrics` compares (``ComparedSamples``); the gap's figure draws
+    the same ones (``gap.plot.trace_series``)."""
     top = max(float(np.max(mt.feed_mm_s)), float(np.max(al.feed_mm_s)), 1e-9)
     thr = scales.moving_mm_s(top)
     model_speed = compare_speed_mm_s(mt, scales)
     v_model = np.interp(al.t_sim_s, mt.t_s, model_speed)
-    moving = valid & ((al.feed_mm_s > thr) | (v_model > thr))
-    # measured samples in motion outside the model's span (the model ended or started too
-    # early, or the alignment failed): the model stands still there, so the feed error is the
-    # measured speed and the time error at least the time outside the model's motion
-    t_meas_start, t_meas_end, t_model_start, t_model_end = motion_span_s(al, mt, model_speed, thr)
-    unmatched = ~valid & (al.feed_mm_s > thr)
-    outside = np.maximum(np.maximum(t_model_start - al.t_s, al.t_s - t_model_end), 0.0)
+    moving = al.valid & ((al.feed_mm_s > thr) | (v_model > thr))
+    # a sample in motion outside the model's span: the model stands still there, so its feed
+    # error is the measured speed and its time error at least the time outside the model's motion
+    span = motion_span_s(al, mt, model_speed, thr)
+    unmatched = ~al.valid & (al.feed_mm_s > thr)
+    outside = np.maximum(np.maximum(span[2] - al.t_s, al.t_s - span[3]), 0.0)
+    return ComparedSamples(model_speed, v_model, moving, unmatched, outside, span)
+
+
+def gap_metrics(al: Alignment, mt, scales: GapScales) -> GapMetrics:
+    """Gap metrics of an alignment of a measured trace to a model trace."""
+    valid = al.valid
+    c = compared_samples(al, mt, scales)
+    moving, unmatched, outside, v_model = c.moving, c.unmatched, c.outside_s, c.v_model
+    t_meas_start, t_meas_end, t_model_start, t_model_end = c.span_s
     centred = centred_mask(al.t_s, scales.speed_window_s)
     feed_err = np.concatenate([(al.feed_mm_s - v_model)[moving & centred], al.feed_mm_s[unmatched]])
     # the clock offset is the alignment's own freedom (any constant is a different time

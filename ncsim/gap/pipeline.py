@@ -51,7 +51,7 @@ from ncsim.gap.effects import COMMAND_EFFECTS, Model, corrected_machine, get_eff
 from ncsim.gap.measured import MeasuredTrace, detect_preset, load_measured_csv, load_umich_csv
 from ncsim.gap.register import Registration, rate_problem, register
 from ncsim.gap.summaryfile import load_measured_summary
-from ncsim.machine import MachineSpec, dump_machine_toml, load_machine
+from ncsim.machine import MachineSpec, dump_machine_toml, load_machine, machine_file_text
 
 FORMATS = ("auto", "csv", "kit", "umich", "summary")
 MIN_PERIOD_S = 1e-3   # a trace sampled faster is averaged down to 1 ms (the model grid is 2 ms)
@@ -168,9 +168,10 @@ class GapResult:
             fitted.append((best.effect, best.params))
         return model, fitted
 
-    def corrected_machine(self) -> MachineSpec:
-        """The machine with the fitted parameters (``effects.corrected_machine``)."""
-        spec = corrected_machine(self.corrected_model()[0])
+    def corrected_machine(self, model: Model | None = None) -> MachineSpec:
+        """The machine with the fitted parameters (``effects.corrected_machine`` of ``model``,
+        by default :meth:`corrected_model`'s)."""
+        spec = corrected_machine(self.corrected_model()[0] if model is None else model)
         desc = (spec.description + " -- " if spec.description else "") + "corrected by ncsim gap"
         return replace(spec, description=desc)
 
@@ -184,8 +185,8 @@ class GapResult:
     def _calibrate(self):
         from ncsim.gap.calibration import (Calibration, bound_hits, complete_ovl_changes,
                                            machine_changes)
-        _, fitted = self.corrected_model()
-        new = self.corrected_machine()
+        model, fitted = self.corrected_model()
+        new = self.corrected_machine(model)
         changes = machine_changes(self.machine, new, [n for n, _ in fitted])
         if self.machine_text is not None:
             changes = complete_ovl_changes(self.machine, new, changes, self.machine_text)
@@ -193,7 +194,6 @@ class GapResult:
         times = {}
         if self.path is not None and self.planner is not None:
             from ncsim.motion import FULL_MODEL
-            model = self.corrected_model()[0]
             cache = self.evaluator().cache
             times = {"base_cycle_time_s": cache.motion(Model(machine=self.machine)).total_time_s,
                      "cycle_time_s": cache.motion(model).total_time_s}
@@ -210,9 +210,10 @@ class GapResult:
         """The gap and rms before and after the correction, for the file's header."""
         from ncsim.units import mm_s_to_mm_min
         out = []
-        if self.planner is not None and self.kind in ("trace", "split"):
+        if self.planner is not None:
             b = self.planner.gap_before
             a = (self.planner.combined or self.planner.best).gap_after
+        if self.planner is not None and self.kind in ("trace", "split"):
             what = "planner part (ncsim against the command)" if self.kind == "split" else "trace"
             out.append(f"{what}, base model '{self.planner.base}': gap {b.gap:.4g} -> {a.gap:.4g}; "
                        f"feed {mm_s_to_mm_min(b.feed_rms_mm_s):.4g} -> "
@@ -221,8 +222,6 @@ class GapResult:
                        f"{b.cycle_time_error_s:+.4f} -> {a.cycle_time_error_s:+.4f} s, contour "
                        f"{b.contour_rms_um:.4g} -> {a.contour_rms_um:.4g} um rms")
         elif self.planner is not None:
-            b = self.planner.gap_before
-            a = (self.planner.combined or self.planner.best).gap_after
             out.append(f"published values, base model '{self.planner.base}': gap {b.gap:.4g} "
                        f"-> {a.gap:.4g}")
         if self.servo is not None:
@@ -248,7 +247,8 @@ class GapResult:
 
 
 def _machine_file_notes(name: str, params: Mapping) -> list[str]:
-    """What a fitted effect sets that a machine file has no key for."""
+    """What the machine file makes of a fitted effect that it holds in part (an acceleration
+    mode, an override) or not at all (a feed-forward weight, the recorder, a delay)."""
     if name in ("accel_mode", "corner_law"):
         return [f"{name} {params.get('mode')}: written as [ncu] reset_accel_mode (MD20150 group "
                 "21), which holds where the program selects none; a block that programs "
@@ -477,19 +477,6 @@ def diagnose(programs: Sequence[str | FsPath], measured: str | FsPath,
     stages("plausible hypotheses")
     result.prefer_plausible()
     return result
-
-
-def machine_file_text(name_or_path: str | FsPath) -> str:
-    """The text of the machine file ``load_machine`` reads for ``name_or_path`` (a TOML path
-    or a bundled machine's name), for the calibrated file to edit."""
-    from importlib import resources
-    p = FsPath(name_or_path)
-    try:
-        if p.suffix == ".toml" or p.exists():
-            return p.read_text(encoding="utf-8")
-        return (resources.files("ncsim.machines") / f"{p.name}.toml").read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:    # it loaded a moment ago
-        raise UsageError(f"cannot read machine file {name_or_path}: {exc}") from None
 
 
 def warmup_kernels() -> None:

@@ -52,22 +52,16 @@ def trace_series(evaluator, model) -> dict:
       the model does not reach (``unmatched``);
     * ``time_rms_ms``, ``contour_rms_um``: the rms of these arrays, as the text reports them.
     """
-    from ncsim.gap.metrics import compare_speed_mm_s, motion_span_s, rms
+    from ncsim.gap.metrics import compared_samples, rms
     m, al, mt = evaluator.evaluate(model, full=True)
-    scales = evaluator.scales
-    model_speed = compare_speed_mm_s(mt, scales)
-    top = max(float(np.max(mt.feed_mm_s)), float(np.max(al.feed_mm_s)), 1e-9)
-    thr = scales.moving_mm_s(top)
-    v_model = np.interp(al.t_sim_s, mt.t_s, model_speed)
-    compared = al.valid & ((al.feed_mm_s > thr) | (v_model > thr))
-    unmatched = ~al.valid & (al.feed_mm_s > thr)
-    _, _, t_start, t_end = motion_span_s(al, mt, model_speed, thr)
-    outside = np.maximum(np.maximum(t_start - al.t_s, al.t_s - t_end), 0.0)
+    c = compared_samples(al, mt, evaluator.scales)      # the samples gap_metrics compares
+    compared, unmatched = c.moving, c.unmatched
     te = np.asarray(al.time_error_s, dtype=np.float64)
     median = float(np.median(te[compared])) if np.any(compared) else 0.0
     time_error_ms = s_to_ms(te - median)
     dist_um = mm_to_um(np.asarray(al.distance_mm, dtype=np.float64))
-    return {"t_model_s": mt.t_s + al.time_shift_s, "speed_model_mm_s": model_speed,
+    outside = c.outside_s
+    return {"t_model_s": mt.t_s + al.time_shift_s, "speed_model_mm_s": c.model_speed,
             "t_s": np.asarray(evaluator.measured.t_s), "time_error_ms": time_error_ms, "contour_um": dist_um,
             "valid": np.asarray(al.valid), "compared": compared, "unmatched": unmatched,
             "outside_ms": s_to_ms(outside),

@@ -19,7 +19,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ncsim.config import Problems, between, open_share, read_toml, share, share0
+from ncsim.config import (MAX_TOML_BYTES, Problems, between, open_share, read_text, read_toml,
+                          share, share0)
 from ncsim.errors import ConfigWarning, MachineSpecError
 # the plausibility checks and the [dynamics] table live in submodules; their public names are
 # ncsim.machine's too
@@ -551,19 +552,32 @@ def bundled_machines() -> dict[str, str]:
     return out
 
 
-def load_machine(name_or_path: str | FsPath) -> MachineSpec:
-    """Load a machine from a TOML path, or by the name of a bundled machine (``mikron``)."""
+def machine_file(name_or_path: str | FsPath):
+    """Where a machine is read from: ``(source, name)``, a TOML path or the file of a bundled
+    machine (``mikron``), and its name in messages."""
     p = FsPath(name_or_path)
     if p.suffix == ".toml" or p.exists():
-        source, file = p, str(p)
-    else:
-        source = resources.files("ncsim.machines") / f"{p.name}.toml"
-        if not source.is_file():
-            names = ", ".join(bundled_machines()) or "none"
-            raise MachineSpecError(f"no machine file and no bundled machine named {str(name_or_path)!r} "
-                                   f"(bundled: {names})", file=str(name_or_path))
-        file = f"{p.name}.toml (bundled)"
+        return p, str(p)
+    source = resources.files("ncsim.machines") / f"{p.name}.toml"
+    if not source.is_file():
+        names = ", ".join(bundled_machines()) or "none"
+        raise MachineSpecError(f"no machine file and no bundled machine named {str(name_or_path)!r} "
+                               f"(bundled: {names})", file=str(name_or_path))
+    return source, f"{p.name}.toml (bundled)"
+
+
+def load_machine(name_or_path: str | FsPath) -> MachineSpec:
+    """Load a machine from a TOML path, or by the name of a bundled machine (``mikron``)."""
+    source, file = machine_file(name_or_path)
     return machine_from_dict(read_toml(source, "machine file", name=file, error=MachineSpecError), file)
+
+
+def machine_file_text(name_or_path: str | FsPath) -> str:
+    """The text of the file :func:`load_machine` reads for ``name_or_path`` (what a calibrated
+    file is edited from, ``ncsim.gap.calibration``)."""
+    source, file = machine_file(name_or_path)
+    return read_text(source, "machine file", name=file, error=MachineSpecError,
+                     max_bytes=MAX_TOML_BYTES)
 
 
 def dump_machine_toml(spec: MachineSpec, header: str = "") -> str:
